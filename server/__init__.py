@@ -1,0 +1,1 @@
+"""linkview: a live digital twin of ctrlX-controlled machines in the browser."""

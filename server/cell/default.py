@@ -1,0 +1,31 @@
+"""The default demo cell, matching the axes the mock data layer simulates."""
+
+from __future__ import annotations
+
+from ..kinematics import Type12
+from .robot import Joint, Robot
+
+
+def axis_node(axis: str) -> str:
+    """Data-layer node of an axis's actual position."""
+    return f"motion/axs/{axis}/state/values/actual/pos"
+
+
+def kin12() -> Robot:
+    """The seed 000 Type 12 mechanism, joints ``kin12_a0`` / ``kin12_a1`` in degrees."""
+    kin = Type12()
+    return Robot(
+        name="kin12",
+        family="type12",
+        kinematics=kin,
+        joints=(
+            Joint("a0", axis_node("kin12_a0"), "deg"),
+            Joint("a1", axis_node("kin12_a1"), "deg"),
+        ),
+        link_names=kin.link_names,
+    )
+
+
+def default_cell() -> list[Robot]:
+    """Every robot of the demo cell."""
+    return [kin12()]

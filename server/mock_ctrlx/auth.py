@@ -1,0 +1,56 @@
+"""Token issuing and checking for the mock identity manager (HS256 JWTs)."""
+
+from __future__ import annotations
+
+import secrets
+import time
+from dataclasses import dataclass, field
+
+import jwt
+
+SCOPES = ["rexroth-device.all.rwx"]
+
+
+@dataclass
+class TokenIssuer:
+    """Issues JWTs with ``iat``, ``exp`` and ``scope`` that really expire, and can revoke them."""
+
+    users: dict[str, str]
+    lifetime_s: float = 3600.0
+    _key: bytes = field(default_factory=lambda: secrets.token_bytes(32))
+    _revoked: set[str] = field(default_factory=set)
+
+    def issue(self, user: str, password: str) -> str | None:
+        """A new token, or None when the credentials are wrong."""
+        if not secrets.compare_digest(self.users.get(user, "\0"), password):
+            return None
+        now = time.time()
+        claims = {
+            "sub": user,
+            "name": user,
+            "iat": int(now),
+            "exp": now + self.lifetime_s,
+            "scope": SCOPES,
+            "jti": secrets.token_hex(8),
+        }
+        return jwt.encode(claims, self._key, algorithm="HS256")
+
+    def check(self, token: str) -> str | None:
+        """None if the token is valid, else the reason it is not."""
+        if token in self._revoked:
+            return "the token was revoked"
+        try:
+            jwt.decode(token, self._key, algorithms=["HS256"])
+        except jwt.ExpiredSignatureError:
+            return "the token has expired"
+        except jwt.InvalidTokenError:
+            return "the token is not valid"
+        return None
+
+    def revoke(self, token: str) -> None:
+        """Make ``token`` invalid from now on (DELETE /auth/token)."""
+        self._revoked.add(token)
+
+    def revoke_all(self) -> None:
+        """Invalidate every token issued so far (tests use it to force a re-login)."""
+        self._key = secrets.token_bytes(32)

@@ -1,0 +1,94 @@
+"""One acquisition task per data source, shared by every viewer.
+
+It reads the joint nodes of every robot on that source once per period,
+turns each robot's sample into a frame, and publishes it to the hub. Viewer
+count never changes the data-layer traffic.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..cell import Robot
+from ..ctrlx import DataLayerClient, DataLayerError, Sample, follow
+from .frames import compute_frame
+from .hub import Hub
+from .status import SourceHealth
+from .types import RobotSample
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PollSettings:
+    """How often to read, and how long to wait after the source failed."""
+
+    period_s: float = 0.02
+    retry_min_s: float = 0.5
+    retry_max_s: float = 10.0
+
+
+class Acquisition:
+    """Follows one data source and publishes frames for its robots."""
+
+    def __init__(
+        self,
+        client: DataLayerClient,
+        robots: list[Robot],
+        hub: Hub,
+        health: SourceHealth,
+        settings: PollSettings = PollSettings(),
+    ) -> None:
+        self._client = client
+        self._robots = robots
+        self._hub = hub
+        self.health = health
+        self._settings = settings
+        self._seq = 0
+        self._nodes = sorted({node for robot in robots for node in robot.nodes})
+
+    async def run(self) -> None:
+        """Follow the source forever; errors are reported and retried, never raised."""
+        retry = self._settings.retry_min_s
+        while True:
+            try:
+                async for sample in follow(self._client, self._nodes, self._settings.period_s):
+                    retry = self._settings.retry_min_s
+                    self._seq += 1
+                    if self.health.mark_sample(sample.t_source):
+                        self._publish_status()
+                    for robot in self._robots:
+                        self._publish_robot(robot, sample)
+            except DataLayerError as exc:
+                self._report_error(str(exc))
+            await asyncio.sleep(retry)
+            retry = min(retry * 2.0, self._settings.retry_max_s)
+
+    def _publish_robot(self, robot: Robot, sample: Sample) -> None:
+        read = [sample.values[n] for n in robot.nodes]
+        errors = [str(v) for v in read if isinstance(v, Exception)]
+        robot_sample = RobotSample(
+            seq=self._seq,
+            t_source=sample.t_source,
+            values=None if errors else np.array(read, dtype=np.float64),
+            error="; ".join(errors) if errors else None,
+        )
+        message, ok, error = compute_frame(robot, robot_sample)
+        if self.health.mark_robot(robot.name, ok, error):
+            if ok:
+                log.info("robot %s: streaming", robot.name)
+            else:
+                log.warning("robot %s: %s", robot.name, error)
+        self._hub.publish(f"frame:{robot.name}", message.decode())
+
+    def _report_error(self, error: str) -> None:
+        if self.health.mark_error(error):
+            log.error("data source %s: %s", self.health.name, error)
+            self._publish_status()
+
+    def _publish_status(self) -> None:
+        self._hub.publish(f"status:{self.health.name}", self.health.status_message())
