@@ -20,6 +20,7 @@ class Viewer:
         self.id = next(self._ids)
         self._pending: dict[str, str] = {}
         self._ready = asyncio.Event()
+        self.closed = False
         self.sent = 0
         self.dropped = 0
         """Messages overwritten before this viewer read them."""
@@ -31,9 +32,16 @@ class Viewer:
         self._pending[key] = message
         self._ready.set()
 
+    def close(self) -> None:
+        """Wake a waiting ``take`` for good: the viewer went away."""
+        self.closed = True
+        self._ready.set()
+
     async def take(self) -> list[str]:
-        """Wait for pending messages and take them all, oldest key first."""
+        """Wait for pending messages and take them all, oldest key first; [] once closed."""
         await self._ready.wait()
+        if self.closed:
+            return []
         self._ready.clear()
         batch = list(self._pending.values())
         self._pending.clear()

@@ -38,9 +38,10 @@ async def viewer_socket(websocket: WebSocket) -> None:
     await websocket.accept()
     viewer = runtime.hub.join()
     receiver = asyncio.create_task(_drain_incoming(websocket))
+    receiver.add_done_callback(lambda _: viewer.close())
     try:
         await websocket.send_text(hello_message(runtime))
-        while not receiver.done():
+        while not viewer.closed:
             batch = await viewer.take()
             for message in batch:
                 await asyncio.wait_for(websocket.send_text(message), SEND_TIMEOUT_S)

@@ -1,0 +1,69 @@
+"""Fixtures shared across test folders: free loopback ports and a running linkview server."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+
+import uvicorn
+from aiohttp import web
+
+from server.cell import Robot
+from server.config import Settings
+from server.mock_ctrlx import build_app, serve
+from server.web import create_app
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on right now."""
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+@asynccontextmanager
+async def running_mock(
+    app: web.Application | None = None,
+) -> AsyncIterator[tuple[web.Application, str]]:
+    """A mock ctrlX data layer (default: ``build_app()``) on a free loopback port."""
+    app = app if app is not None else build_app()
+    runner, url = await serve(app, "127.0.0.1", 0)
+    try:
+        yield app, url
+    finally:
+        await runner.cleanup()
+
+
+@asynccontextmanager
+async def running_server(
+    settings: Settings, robots: list[Robot] | None = None
+) -> AsyncIterator[str]:
+    """linkview served by uvicorn on a free loopback port; yields its http base URL."""
+    port = free_port()
+    config = uvicorn.Config(
+        create_app(settings, robots),
+        host="127.0.0.1",
+        port=port,
+        log_level="warning",
+        ws="websockets-sansio",
+        lifespan="on",
+    )
+    server = uvicorn.Server(config)
+    task = asyncio.create_task(server.serve())
+    try:
+        async with asyncio.timeout(10):
+            while not server.started:
+                await asyncio.sleep(0.02)
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        await asyncio.wait_for(task, 10)
+
+
+async def wait_until(predicate: Callable[[], bool], timeout_s: float = 10.0) -> None:
+    """Poll ``predicate`` until it holds; fails the test after ``timeout_s``."""
+    async with asyncio.timeout(timeout_s):
+        while not predicate():
+            await asyncio.sleep(0.02)

@@ -1,0 +1,122 @@
+"""Bad input never crashes the server or stops the other robots; it is reported clearly."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from typing import Any
+
+import aiohttp
+from pydantic import SecretStr
+from websockets.asyncio.client import connect
+
+from server.cell import Joint, Robot, default_cell
+from server.config import Settings
+from server.kinematics import Type12
+from server.mock_ctrlx import build_app, serve
+from tests.conftest import free_port, running_mock, running_server
+
+
+async def health_of(base: str) -> dict[str, Any]:
+    async with aiohttp.ClientSession() as http, http.get(base + "/api/health") as resp:
+        assert resp.status == 200
+        result: dict[str, Any] = await resp.json()
+        return result
+
+
+async def wait_for_health(base: str, predicate: Any, timeout_s: float = 15.0) -> dict[str, Any]:
+    async with asyncio.timeout(timeout_s):
+        while not predicate(health := await health_of(base)):
+            await asyncio.sleep(0.05)
+    return health
+
+
+async def latest_frames(base: str, robots: set[str]) -> dict[str, dict[str, Any]]:
+    """The first frame of each robot in ``robots`` a fresh viewer sees."""
+    seen: dict[str, dict[str, Any]] = {}
+    async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(10):
+        while set(seen) != robots:
+            msg = json.loads(await ws.recv())
+            if msg["type"] == "frame" and msg["robot"] in robots:
+                seen[msg["robot"]] = msg
+    return seen
+
+
+def robot_on(name: str, kin: Type12, axes: tuple[str, str]) -> Robot:
+    joints = tuple(
+        Joint(j, f"motion/axs/{a}/state/values/actual/pos", "deg")
+        for j, a in zip(("a0", "a1"), axes, strict=True)
+    )
+    return Robot(
+        name=name, family="type12", kinematics=kin, joints=joints, link_names=kin.link_names
+    )
+
+
+async def test_wrong_password_is_reported_and_server_keeps_serving() -> None:
+    settings_ok = Settings(ctrlx_password=SecretStr("wrong"))
+    async with (
+        running_mock() as (_, url),
+        running_server(settings_ok.model_copy(update={"ctrlx_url": url})) as base,
+    ):
+        health = await wait_for_health(base, lambda h: h["sources"][0]["state"] == "error")
+        error = health["sources"][0]["error"]
+        assert "401" in error and "wrong user name or password" in error
+        assert "wrong" not in error.replace("wrong user", ""), "the password must not leak"
+        assert health["status"] == "degraded"
+        async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(10):
+            hello = json.loads(await ws.recv())
+            assert hello["type"] == "hello"
+            status = json.loads(await ws.recv())
+            assert status["type"] == "status" and status["sources"][0]["state"] == "error"
+
+
+async def test_unknown_node_spoils_only_its_robot() -> None:
+    ghost = robot_on("ghost", Type12(), ("kin12_a0", "no_such_axis"))
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url), [*default_cell(), ghost]) as base,
+    ):
+        frames = await latest_frames(base, {"kin12", "ghost"})
+        health = await wait_for_health(
+            base, lambda h: h["sources"][0]["robots"].get("ghost", {}).get("frames", 0) > 0
+        )
+    assert frames["kin12"]["ok"] is True
+    assert frames["ghost"]["ok"] is False
+    assert "404" in frames["ghost"]["error"] and "no_such_axis" in frames["ghost"]["error"]
+    assert frames["ghost"]["links"] == []
+    assert health["sources"][0]["state"] == "connected"
+    assert "DL_INVALID_ADDRESS" in health["sources"][0]["robots"]["ghost"]["error"]
+    assert health["sources"][0]["robots"]["kin12"]["ok"] is True
+
+
+async def test_unreachable_posture_gives_error_frames_not_nan() -> None:
+    # With L4 far too short the bar cannot close the loop at any of the mock's angles.
+    broken = robot_on("broken", Type12(l4=0.01), ("kin12_a0", "kin12_a1"))
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url), [*default_cell(), broken]) as base,
+    ):
+        frames = await latest_frames(base, {"kin12", "broken"})
+    assert frames["kin12"]["ok"] is True
+    assert frames["broken"]["ok"] is False
+    assert frames["broken"]["error"].startswith("unreachable posture")
+    assert len(frames["broken"]["joints"]) == 2
+    assert frames["broken"]["links"] == [] and frames["broken"]["tcp"] == []
+
+
+async def test_data_layer_down_then_up_recovers() -> None:
+    port = free_port()
+    url = f"http://127.0.0.1:{port}"
+    async with running_server(Settings(ctrlx_url=url)) as base:
+        health = await wait_for_health(base, lambda h: h["sources"][0]["state"] == "error")
+        assert "cannot reach" in health["sources"][0]["error"]
+        runner, _ = await serve(build_app(), "127.0.0.1", port)
+        try:
+            health = await wait_for_health(
+                base, lambda h: h["sources"][0]["state"] == "connected", timeout_s=30
+            )
+            frames = await latest_frames(base, {"kin12"})
+        finally:
+            await runner.cleanup()
+    assert health["sources"][0]["error"] is None
+    assert frames["kin12"]["ok"] is True
