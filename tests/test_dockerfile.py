@@ -1,0 +1,60 @@
+"""The Dockerfile's entry command, run directly (no Docker engine on these machines)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+from tests.conftest import free_port
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def dockerfile_cmd_and_env() -> tuple[list[str], dict[str, str]]:
+    text = (ROOT / "Dockerfile").read_text()
+    cmd = json.loads(re.search(r"^CMD (\[.*\])$", text, re.M).group(1))  # type: ignore[union-attr]
+    env_block = re.search(r"^ENV (.*?)(?:\n(?!\s)|\Z)", text, re.M | re.S).group(1)  # type: ignore[union-attr]
+    env = dict(re.findall(r"(\w+)=(\S+)", env_block.replace("\\\n", " ")))
+    return cmd, env
+
+
+def test_dockerfile_copies_everything_the_server_reads() -> None:
+    text = (ROOT / "Dockerfile").read_text()
+    for folder in ("server", "static", "assets"):
+        assert re.search(rf"^COPY {folder} \./{folder}$", text, re.M), folder
+
+
+def test_dockerfile_entry_command_serves_health() -> None:
+    cmd, env = dockerfile_cmd_and_env()
+    assert cmd[:3] == ["python", "-m", "server"]
+    assert env["LINKVIEW_HOST"] == "0.0.0.0"
+    port = free_port()
+    # Same command and variables, but bound to loopback only, as tests must be.
+    run_env = {**os.environ, **env, "LINKVIEW_HOST": "127.0.0.1", "LINKVIEW_PORT": str(port)}
+    proc = subprocess.Popen([sys.executable, *cmd[1:]], cwd=ROOT, env=run_env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=2) as r:
+                    health = json.load(r)
+                    if health["sources"][0]["state"] == "connected":
+                        break
+            except OSError:
+                pass
+            assert proc.poll() is None, proc.stdout.read().decode()  # type: ignore[union-attr]
+            assert time.monotonic() < deadline, "server did not become healthy"
+            time.sleep(0.2)
+        assert health["status"] == "ok"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        if proc.stdout:
+            proc.stdout.close()
