@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ..kinematics import Type12
+from .axis_group import tilt_rotate_positioner
 from .robot import Joint, Robot
 
 
@@ -23,9 +24,26 @@ def kin12() -> Robot:
             Joint("a1", axis_node("kin12_a1"), "deg"),
         ),
         link_names=kin.link_names,
+        base=(-0.75, 0.35, 0.0, 0.0, 0.0, 0.0, 1.0),
+    )
+
+
+def positioner() -> Robot:
+    """A tilt/rotate table built as a MotionPlus axis group; ``pos_tilt``/``pos_turn`` in deg."""
+    return Robot(
+        name="positioner",
+        family="axis_group",
+        kinematics=tilt_rotate_positioner(),
+        joints=(
+            Joint("tilt", axis_node("pos_tilt"), "deg"),
+            Joint("turn", axis_node("pos_turn"), "deg"),
+        ),
+        link_names=("base", "tilt", "table"),
+        base=(0.85, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0),
+        tcp_is_last_link=True,
     )
 
 
 def default_cell() -> list[Robot]:
     """Every robot of the demo cell."""
-    return [kin12()]
+    return [kin12(), positioner()]

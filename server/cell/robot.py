@@ -51,6 +51,16 @@ class Robot:
     joints: tuple[Joint, ...]
     link_names: tuple[str, ...]
     base: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    tcp_is_last_link: bool = False
+    """True where the TCP is the last link frame, so it need not be computed twice."""
+
+    def poses(self, q: Array) -> tuple[Array, Array, BoolArray]:
+        """Link poses ``(..., n, 4, 4)``, TCP ``(..., 4, 4)`` and ``ok`` for joints ``q`` (SI)."""
+        links, ok = self.kinematics.link_poses(q)
+        if self.tcp_is_last_link:
+            return links, links[..., -1, :, :], ok
+        tcp, ok_tcp = self.kinematics.forward(q)
+        return links, tcp, ok & ok_tcp
 
     @property
     def nodes(self) -> tuple[str, ...]:

@@ -24,9 +24,8 @@ def compute_frame(robot: Robot, sample: RobotSample) -> tuple[bytes, bool, str |
     tcp: Array | list[object] = []
     if error is None and sample.values is not None:
         q = sample.values * robot.to_si
-        link_poses, ok_links = robot.kinematics.link_poses(q)
-        tcp_pose, ok_tcp = robot.kinematics.forward(q)
-        if bool(ok_links) and bool(ok_tcp):
+        link_poses, tcp_pose, ok = robot.poses(q)
+        if bool(ok):
             links, tcp = pose7_from_matrix(link_poses), pose7_from_matrix(tcp_pose)
         else:
             error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"

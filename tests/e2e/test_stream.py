@@ -35,13 +35,15 @@ def seed_tcp_mm(a0_deg: float, a1_deg: float) -> tuple[float, float]:
     return tcp.real, tcp.imag
 
 
-async def read_messages(url: str, count: int) -> list[dict[str, Any]]:
-    """The first ``count`` messages a viewer receives."""
+async def read_messages(url: str, count: int, robot: str | None = None) -> list[dict[str, Any]]:
+    """Messages a viewer receives until ``count`` of them (or of ``robot``'s frames) arrived."""
     out: list[dict[str, Any]] = []
+    seen = 0
     async with connect(url) as ws:
         async with asyncio.timeout(15):
-            while len(out) < count:
+            while seen < count:
                 out.append(json.loads(await ws.recv()))
+                seen += robot is None or out[-1].get("robot") == robot
     return out
 
 
@@ -50,7 +52,7 @@ async def test_viewer_gets_hello_then_frames_matching_seed_formula() -> None:
         running_mock() as (_, mock_url),
         running_server(Settings(ctrlx_url=mock_url)) as base,
     ):
-        messages = await read_messages(base.replace("http", "ws") + "/ws", 60)
+        messages = await read_messages(base.replace("http", "ws") + "/ws", 40, robot="kin12")
 
     hello = Hello.model_validate(messages[0])
     assert hello.protocol == 1
