@@ -49,6 +49,7 @@ async def running_server(
         log_level="warning",
         ws="websockets-sansio",
         lifespan="on",
+        timeout_graceful_shutdown=2,
     )
     server = uvicorn.Server(config)
     task = asyncio.create_task(server.serve())
