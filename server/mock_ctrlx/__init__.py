@@ -1,6 +1,23 @@
 """A mock of the ctrlX CORE REST API (identity manager + data layer) with a simulated machine."""
 
-from .app import STATE_KEY, build_app, serve
-from .machine import Machine, SimAxis
+from .app import build_app, serve
+from .faults import Faults
+from .machine import AxisGroup, Machine, SimAxis, demo_groups
+from .nodes import NodeTree
+from .state import STATE_KEY, MockState
+from .tls import MockCertificate, make_certificate
 
-__all__ = ["STATE_KEY", "Machine", "SimAxis", "build_app", "serve"]
+__all__ = [
+    "STATE_KEY",
+    "AxisGroup",
+    "Faults",
+    "Machine",
+    "MockCertificate",
+    "MockState",
+    "NodeTree",
+    "SimAxis",
+    "build_app",
+    "demo_groups",
+    "make_certificate",
+    "serve",
+]

@@ -4,18 +4,28 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import tempfile
+from pathlib import Path
 
 from ..logs import setup_logging
 from .app import build_app, serve
+from .tls import make_certificate
 
 
-async def _run(host: str, port: int, token_lifetime_s: float) -> None:
-    runner, url = await serve(build_app(token_lifetime_s=token_lifetime_s), host, port)
-    print(f"mock ctrlX data layer at {url}", flush=True)
-    try:
-        await asyncio.Event().wait()
-    finally:
-        await runner.cleanup()
+async def _run(args: argparse.Namespace) -> None:
+    context, note = None, ""
+    with tempfile.TemporaryDirectory(prefix="mock-ctrlx-") as tmp:
+        if args.tls:
+            cert = make_certificate(Path(args.tls_dir) if args.tls_dir else Path(tmp))
+            context = cert.server_context()
+            note = f" (trust it with --ctrlx-ca {cert.ca_file})"
+        app = build_app(token_lifetime_s=args.token_lifetime, changes_only=args.changes_only)
+        runner, url = await serve(app, args.host, args.port, context)
+        print(f"mock ctrlX data layer at {url}{note}", flush=True)
+        try:
+            await asyncio.Event().wait()
+        finally:
+            await runner.cleanup()
 
 
 def main() -> None:
@@ -23,16 +33,23 @@ def main() -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8443)
     parser.add_argument(
-        "--token-lifetime",
-        type=float,
-        default=3600.0,
-        metavar="S",
-        help="seconds a token stays valid",
+        "--token-lifetime", type=float, default=3600.0, metavar="S", help="seconds a token lives"
+    )
+    parser.add_argument(
+        "--tls", action="store_true", help="serve HTTPS with a self-signed certificate made now"
+    )
+    parser.add_argument(
+        "--tls-dir", metavar="DIR", help="where to write the certificate (default: a temp dir)"
+    )
+    parser.add_argument(
+        "--changes-only",
+        action="store_true",
+        help="subscriptions publish a node only when its value changed",
     )
     args = parser.parse_args()
     setup_logging()
     try:
-        asyncio.run(_run(args.host, args.port, args.token_lifetime))
+        asyncio.run(_run(args))
     except KeyboardInterrupt:
         pass
 

@@ -1,48 +1,35 @@
-"""The mock ctrlX REST API as an aiohttp application (identity manager + data layer)."""
+"""The mock ctrlX REST API as an aiohttp application (identity manager + data layer).
+
+Paths follow the published OpenAPI descriptions (identity manager v2.10.0,
+data layer v2.1.5); the older firmware's ``/identity-manager/api/v1.0`` (and
+``v1``) token and ``/automation/api/v1/<path>`` reads are served too. Admin
+endpoints for fault injection live under ``/mock/``.
+"""
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+import ssl
 from typing import Any
-from urllib.parse import unquote
 
 from aiohttp import web
 from aiohttp.typedefs import Handler
 
+from ..ctrlx.paths import encode_node_path
+from ..ctrlx.timestamps import filetime_from_unix
+from . import events
 from .auth import TokenIssuer
+from .faults import Faults, faults_middleware
 from .machine import Machine
+from .nodes import NodeError, NodeTree
+from .state import STATE_KEY, MockState, problem, problem_body
 
 log = logging.getLogger(__name__)
 
-AUTH_BASE = "/identity-manager/api/v2"
+AUTH_BASES = ("/identity-manager/api/v2", "/identity-manager/api/v1.0", "/identity-manager/api/v1")
 DL_BASE = "/automation/api/v2"
-AXES_PREFIX = "motion/axs/"
+DL_V1_BASES = ("/automation/api/v1", "/automation/api/v1.0")
 DEFAULT_USERS = {"boschrexroth": "boschrexroth"}
-
-
-@dataclass
-class MockState:
-    """Everything the mock handlers share."""
-
-    machine: Machine
-    tokens: TokenIssuer
-
-
-STATE_KEY = web.AppKey("state", MockState)
-
-
-def problem(status: int, title: str, detail: str, instance: str | None = None) -> web.Response:
-    """An RFC 7807 Problem response, shaped as in the ctrlX OpenAPI descriptions."""
-    body: dict[str, Any] = {
-        "type": "about:blank",
-        "title": title,
-        "status": status,
-        "detail": detail,
-    }
-    if instance is not None:
-        body["instance"] = instance
-    return web.json_response(body, status=status, content_type="application/problem+json")
 
 
 def _bearer(request: web.Request) -> str | None:
@@ -53,56 +40,171 @@ def _bearer(request: web.Request) -> str | None:
 @web.middleware
 async def require_token(request: web.Request, handler: Handler) -> web.StreamResponse:
     """401 Problem for data-layer requests without a valid bearer token."""
-    if request.path.startswith(DL_BASE):
+    if request.path.startswith("/automation/"):
         token = _bearer(request)
         reason = (
             "no bearer token given"
             if token is None
-            else (request.app[STATE_KEY].tokens.check(token))
+            else request.app[STATE_KEY].tokens.check(token)
         )
         if reason is not None:
             return problem(401, "Unauthorized", reason, request.path)
     return await handler(request)
 
 
+# -- identity manager ---------------------------------------------------------
+
+
 async def create_token(request: web.Request) -> web.Response:
     """POST /auth/token: 201 with a bearer token, 401 Problem on wrong credentials."""
     try:
         body = await request.json()
-        user, password = str(body["name"]), str(body["password"])
+        user, password = body["name"], body["password"]
+        if not isinstance(user, str) or not isinstance(password, str):
+            raise TypeError
     except (ValueError, KeyError, TypeError):
         return problem(400, "Bad Request", "expected JSON with 'name' and 'password'")
     token = request.app[STATE_KEY].tokens.issue(user, password)
     if token is None:
-        return problem(401, "Unauthorized", "wrong user name or password")
+        return problem(401, "Unauthorized", "wrong user name or password", request.path)
+    if request.query.get("dryrun") == "true":
+        return web.Response(status=204)
     return web.json_response({"access_token": token, "token_type": "Bearer"}, status=201)
 
 
-def _axis_value(machine: Machine, node: str) -> dict[str, Any] | None:
-    """The Data body of an axis node, or None when no such node exists."""
-    if not node.startswith(AXES_PREFIX):
-        return None
-    axis, _, rest = node[len(AXES_PREFIX) :].partition("/")
-    if axis not in machine.axes:
-        return None
-    sim = machine.axes[axis]
-    if rest == "state/values/actual/pos":
-        return {"type": "double", "value": machine.position(axis)}
-    if rest == "state/values/actual":
-        return {
-            "type": "object",
-            "value": {"actualPos": machine.position(axis), "actualPosUnit": sim.unit},
-        }
-    return None
+async def delete_token(request: web.Request) -> web.Response:
+    """DELETE /auth/token: revoke the bearer token (204 whatever it was)."""
+    token = _bearer(request)
+    if token is not None:
+        request.app[STATE_KEY].tokens.revoke(token)
+    return web.Response(status=204)
+
+
+async def token_validity(request: web.Request) -> web.Response:
+    """GET /auth/token/validity: whether the bearer token is still accepted."""
+    token = _bearer(request)
+    valid = token is not None and request.app[STATE_KEY].tokens.check(token) is None
+    return web.json_response({"valid": valid})
+
+
+# -- data layer ---------------------------------------------------------------
+
+
+def _node_problem(request: web.Request, err: NodeError) -> web.Response:
+    return problem(err.status, err.title, err.detail, request.path)
 
 
 async def read_node(request: web.Request) -> web.Response:
-    """GET /nodes/{path}: a node's value, or 404 DL_INVALID_ADDRESS."""
-    node = unquote(request.match_info["path"])
-    data = _axis_value(request.app[STATE_KEY].machine, node)
-    if data is None:
-        return problem(404, "DL_INVALID_ADDRESS", f"node '{node}' does not exist", request.path)
-    return web.json_response(data)
+    """GET /nodes/{path}[?type=browse|metadata]: value, children or metadata of a node."""
+    state = request.app[STATE_KEY]
+    node = request.match_info["path"]  # already percent-decoded by the router
+    kind = request.query.get("type", "read")
+    try:
+        if kind == "browse":
+            return web.json_response({"type": "arstring", "value": state.nodes.browse(node)})
+        if kind == "metadata":
+            return web.json_response({"type": "object", "value": state.nodes.metadata(node)})
+        if kind not in ("read", "data"):
+            return problem(400, "DL_INVALID_VALUE", f"unknown type '{kind}'", request.path)
+        return web.json_response(state.nodes.read(node))
+    except NodeError as err:
+        return _node_problem(request, err)
+
+
+async def write_node(request: web.Request) -> web.Response:
+    """PUT /nodes/{path}: write a value, or command a move on a ``cmd`` node."""
+    state = request.app[STATE_KEY]
+    try:
+        body = await request.json()
+    except ValueError:
+        return problem(400, "DL_TYPE_MISMATCH", "body is not JSON", request.path)
+    try:
+        return web.json_response(state.nodes.write(request.match_info["path"], body))
+    except NodeError as err:
+        return _node_problem(request, err)
+
+
+async def bulk(request: web.Request) -> web.Response:
+    """PUT /bulk?type=read|write|browse|metadata: many nodes in one round trip."""
+    state = request.app[STATE_KEY]
+    kind = request.query.get("type", "read")
+    if kind not in ("read", "write", "browse", "metadata"):
+        return problem(400, "DL_INVALID_VALUE", f"unsupported bulk type '{kind}'", request.path)
+    try:
+        items = await request.json()
+        if not isinstance(items, list) or not all(
+            isinstance(i, dict) and isinstance(i.get("address"), str) for i in items
+        ):
+            raise TypeError
+    except (ValueError, TypeError):
+        return problem(400, "DL_INVALID_VALUE", "expected [{'address': ...}, ...]", request.path)
+    t = state.machine.now()
+    positions = state.machine.snapshot(t)  # one instant for every node of the request
+    stamp = str(filetime_from_unix(t))
+    answer: list[dict[str, Any]] = []
+    for item in items:
+        node = item["address"]
+        try:
+            data = _bulk_one(state, kind, node, item, positions, t)
+            entry = {"result": "DL_OK", "type": data["type"], "value": data["value"]}
+        except NodeError as err:
+            instance = f"{DL_BASE}/nodes/{encode_node_path(node)}"
+            body = problem_body(err.status, err.title, err.detail, instance)
+            entry = {"result": err.title, "type": "error", "value": body}
+        answer.append({"address": node, "timestamp": stamp, **entry})
+    return web.json_response(answer)
+
+
+def _bulk_one(
+    state: MockState,
+    kind: str,
+    node: str,
+    item: dict[str, Any],
+    positions: dict[str, float],
+    t: float,
+) -> dict[str, Any]:
+    if kind == "read":
+        return state.nodes.read(node, positions)
+    if kind == "write":
+        return state.nodes.write(node, item, t)
+    if kind == "browse":
+        return {"type": "arstring", "value": state.nodes.browse(node)}
+    return {"type": "object", "value": state.nodes.metadata(node)}
+
+
+# -- admin (not part of ctrlX) ------------------------------------------------
+
+
+async def get_faults(request: web.Request) -> web.Response:
+    """GET /mock/faults: the faults switched on now."""
+    return web.json_response(request.app[STATE_KEY].faults.as_dict())
+
+
+async def put_faults(request: web.Request) -> web.Response:
+    """PUT /mock/faults: switch faults, e.g. ``{"outage": true}``."""
+    faults = request.app[STATE_KEY].faults
+    try:
+        changes = await request.json()
+        faults.update(changes if isinstance(changes, dict) else {})
+    except (ValueError, TypeError):
+        return problem(400, "Bad Request", "expected a JSON object of faults")
+    return web.json_response(faults.as_dict())
+
+
+async def drop_streams(request: web.Request) -> web.Response:
+    """POST /mock/faults/drop-streams: end every open event stream."""
+    request.app[STATE_KEY].faults.drop_streams()
+    return web.Response(status=204)
+
+
+async def revoke_all(request: web.Request) -> web.Response:
+    """POST /mock/tokens/revoke-all: invalidate every token (clients must log in again)."""
+    request.app[STATE_KEY].tokens.revoke_all()
+    return web.Response(status=204)
+
+
+async def _stop_streams(app: web.Application) -> None:
+    app[STATE_KEY].closing = True
 
 
 def build_app(
@@ -110,23 +212,56 @@ def build_app(
     *,
     token_lifetime_s: float = 3600.0,
     users: dict[str, str] | None = None,
+    subscriptions: bool = True,
+    bulk_reads: bool = True,
+    changes_only: bool = False,
 ) -> web.Application:
-    """The mock app; run it with ``aiohttp.web`` or ``serve()``."""
-    app = web.Application(middlewares=[require_token])
+    """The mock app; run it with ``serve()``.
+
+    ``subscriptions=False`` / ``bulk_reads=False`` leave those routes out, as on
+    firmware without them (the client must fall back).
+    """
+    app = web.Application(middlewares=[faults_middleware(lambda a: a[STATE_KEY].faults)])
+    app.middlewares.append(require_token)
+    machine = machine or Machine()
     app[STATE_KEY] = MockState(
-        machine=machine or Machine(),
+        machine=machine,
         tokens=TokenIssuer(users=dict(users or DEFAULT_USERS), lifetime_s=token_lifetime_s),
+        nodes=NodeTree(machine),
+        faults=Faults(),
+        changes_only=changes_only,
     )
-    app.router.add_post(AUTH_BASE + "/auth/token", create_token)
-    app.router.add_get(DL_BASE + "/nodes/{path:.+}", read_node)
+    router = app.router
+    for base in AUTH_BASES:
+        router.add_post(base + "/auth/token", create_token)
+        router.add_delete(base + "/auth/token", delete_token)
+        router.add_get(base + "/auth/token/validity", token_validity)
+    if bulk_reads:
+        router.add_put(DL_BASE + "/bulk", bulk)
+    if subscriptions:
+        router.add_post(DL_BASE + "/events", events.create_subscription)
+        router.add_get(DL_BASE + "/events", events.short_form)
+        router.add_get(DL_BASE + "/events/{id}", events.open_subscription)
+        router.add_delete(DL_BASE + "/events/{id}", events.delete_subscription)
+    for base in (DL_BASE + "/nodes", *DL_V1_BASES):
+        router.add_get(base + "/{path:.+}", read_node)
+        router.add_put(base + "/{path:.+}", write_node)
+    router.add_get("/mock/faults", get_faults)
+    router.add_put("/mock/faults", put_faults)
+    router.add_post("/mock/faults/drop-streams", drop_streams)
+    router.add_post("/mock/tokens/revoke-all", revoke_all)
+    app.on_shutdown.append(_stop_streams)
     return app
 
 
-async def serve(app: web.Application, host: str, port: int) -> tuple[web.AppRunner, str]:
+async def serve(
+    app: web.Application, host: str, port: int, ssl_context: ssl.SSLContext | None = None
+) -> tuple[web.AppRunner, str]:
     """Start ``app`` on host:port (0 picks a free port); returns the runner and base URL."""
-    runner = web.AppRunner(app, access_log=None)
+    runner = web.AppRunner(app, access_log=None, shutdown_timeout=2.0)
     await runner.setup()
-    site = web.TCPSite(runner, host, port)
+    site = web.TCPSite(runner, host, port, ssl_context=ssl_context)
     await site.start()
     bound = runner.addresses[0][1]
-    return runner, f"http://{host}:{bound}"
+    scheme = "https" if ssl_context is not None else "http"
+    return runner, f"{scheme}://{host}:{bound}"

@@ -1,67 +1,208 @@
-"""The simulated machine behind the mock data layer: axes that move smoothly by themselves."""
+"""The simulated machine behind the mock data layer: axis groups moving between demo targets.
+
+Each group (one demo robot) repeats a cycle of synchronized trapezoidal moves
+(``server.kinematics.plan_movej``) between its demo targets, with a short
+dwell at each. Positions are a pure function of time, so no background task
+is needed; a commanded move (``command``) replaces the cycle of its group
+until ``resume_demo``.
+
+Values are in the data layer's units, degrees (rotary) and mm (linear),
+velocities per second and accelerations per second squared: the planner's
+arithmetic is the same in any unit.
+"""
 
 from __future__ import annotations
 
-import math
+import threading
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from ..kinematics import TrapezoidMove, plan_movej
+
+Array = npt.NDArray[np.float64]
 
 
 @dataclass(frozen=True)
 class SimAxis:
-    """One axis moving as ``centre + amplitude * sin(2 pi t / period + phase)``.
-
-    Values are in the data layer's units: degrees for rotary axes, mm for linear.
-    """
+    """One simulated axis: name, unit, motion limits and the range commands may reach."""
 
     name: str
-    unit: str
-    centre: float
-    amplitude: float
-    period_s: float
-    phase: float = 0.0
-
-    def position(self, t: float) -> float:
-        """Position at unix time ``t``."""
-        return self.centre + self.amplitude * math.sin(2 * math.pi * t / self.period_s + self.phase)
+    unit: Literal["deg", "mm"]
+    v_max: float
+    """Velocity limit (unit/s)."""
+    a_max: float
+    """Acceleration limit (unit/s^2)."""
+    lo: float = -np.inf
+    hi: float = np.inf
 
 
-def demo_axes() -> list[SimAxis]:
-    """Axes of the default cell, chosen to stay inside each robot's reachable workspace."""
-    iiwa = [
-        SimAxis(f"iiwa_a{i + 1}", "deg", c, a, p, ph)
-        for i, (c, a, p, ph) in enumerate(
-            [
-                (0, 60, 9.0, 0.0),
-                (30, 25, 7.0, 0.5),
-                (0, 40, 11.0, 1.0),
-                (-70, 30, 6.0, 0.2),
-                (0, 60, 8.0, 2.0),
-                (40, 30, 5.0, 0.7),
-                (0, 90, 10.0, 0.0),
-            ]
-        )
-    ]
+@dataclass(frozen=True)
+class AxisGroup:
+    """Axes that move together (one robot) and the demo targets they cycle through."""
+
+    name: str
+    axes: tuple[SimAxis, ...]
+    targets: tuple[tuple[float, ...], ...]
+    dwell_s: float = 0.3
+
+
+def _deg(name: str, v: float, a: float, limit: float | None = None) -> SimAxis:
+    lo, hi = (-np.inf, np.inf) if limit is None else (-limit, limit)
+    return SimAxis(name, "deg", v, a, lo, hi)
+
+
+def demo_groups() -> list[AxisGroup]:
+    """The demo cell: Type 12 mechanism, a 7-axis arm and a two-axis positioner.
+
+    Targets stay where each mechanism is well defined: the Type 12 within
+    ±40° (its loop only closes there), the arm within 70 % of its limits.
+    """
+    iiwa_limits = (170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0)
     return [
-        SimAxis("kin12_a0", "deg", 0.0, 25.0, 6.0),
-        SimAxis("kin12_a1", "deg", 0.0, 30.0, 4.0, 1.0),
-        *iiwa,
-        SimAxis("pos_tilt", "deg", 0.0, 45.0, 12.0),
-        SimAxis("pos_turn", "deg", 0.0, 180.0, 15.0),
+        AxisGroup(
+            "kin12",
+            (_deg("kin12_a0", 60.0, 200.0, 40.0), _deg("kin12_a1", 60.0, 200.0, 40.0)),
+            ((0.0, 0.0), (30.0, -25.0), (-20.0, 30.0), (35.0, 20.0), (-30.0, -30.0)),
+        ),
+        AxisGroup(
+            "iiwa",
+            tuple(
+                _deg(f"iiwa_a{i + 1}", 60.0, 150.0, 0.7 * lim)
+                for i, lim in enumerate(iiwa_limits)
+            ),
+            (
+                (0.0, 20.0, 0.0, -60.0, 0.0, 45.0, 0.0),
+                (60.0, 45.0, -30.0, -40.0, 50.0, 60.0, 90.0),
+                (-50.0, 30.0, 40.0, -80.0, -60.0, 30.0, -100.0),
+                (20.0, 70.0, 10.0, -20.0, 30.0, 75.0, 45.0),
+            ),
+        ),
+        AxisGroup(
+            "pos",
+            (_deg("pos_tilt", 90.0, 180.0, 60.0), _deg("pos_turn", 90.0, 180.0)),
+            ((0.0, 0.0), (30.0, 120.0), (-40.0, 240.0), (0.0, 360.0)),
+        ),
     ]
+
+
+class _Cycle:
+    """A group's demo cycle as a function of time: move, dwell, next move, ... forever."""
+
+    def __init__(self, group: AxisGroup) -> None:
+        v = np.array([a.v_max for a in group.axes])
+        acc = np.array([a.a_max for a in group.axes])
+        targets = [np.asarray(t, dtype=np.float64) for t in group.targets]
+        self.moves: list[TrapezoidMove] = []
+        starts = [0.0]
+        for i, start in enumerate(targets):
+            move = plan_movej(start, targets[(i + 1) % len(targets)], v, acc)
+            self.moves.append(move)
+            starts.append(starts[-1] + move.duration + group.dwell_s)
+        self.starts = np.array(starts[:-1])
+        self.period_s = starts[-1]
+
+    def positions(self, t: float) -> Array:
+        """Positions at unix time ``t`` (the cycle is anchored at t = 0)."""
+        phase = t % self.period_s
+        i = int(np.searchsorted(self.starts, phase, side="right")) - 1
+        # Past a move's end its profile holds the target: that is the dwell.
+        pos: Array = self.moves[i].position(phase - self.starts[i])
+        return pos
 
 
 @dataclass
-class Machine:
-    """All simulated axes, keyed by name, plus a clock that tests can replace."""
+class _Commanded:
+    t0: float
+    move: TrapezoidMove
 
-    axes: dict[str, SimAxis] = field(default_factory=lambda: {a.name: a for a in demo_axes()})
-    clock: object = time.time
+
+class Machine:
+    """All simulated axes, by group, plus a clock that tests can replace."""
+
+    def __init__(
+        self,
+        groups: Sequence[AxisGroup] | None = None,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        self.groups = {g.name: g for g in (demo_groups() if groups is None else groups)}
+        self.axes = {a.name: a for g in self.groups.values() for a in g.axes}
+        self._group_of = {a.name: g.name for g in self.groups.values() for a in g.axes}
+        self._cycles = {name: _Cycle(g) for name, g in self.groups.items()}
+        self._commanded: dict[str, _Commanded] = {}
+        self._lock = threading.Lock()
+        self.clock = clock
 
     def now(self) -> float:
         """Current time of the simulation (unix s)."""
-        return float(self.clock())  # type: ignore[operator]
+        return float(self.clock())
+
+    def group_positions(self, group: str, t: float | None = None) -> Array:
+        """Positions of ``group``'s axes at ``t`` (default now), in axis order."""
+        t = self.now() if t is None else t
+        commanded = self._commanded.get(group)
+        if commanded is not None:
+            pos: Array = commanded.move.position(t - commanded.t0)
+            return pos
+        return self._cycles[group].positions(t)
+
+    def snapshot(self, t: float | None = None) -> dict[str, float]:
+        """Every axis's position at one instant ``t`` (default now)."""
+        t = self.now() if t is None else t
+        out: dict[str, float] = {}
+        for name, group in self.groups.items():
+            for axis, value in zip(group.axes, self.group_positions(name, t), strict=True):
+                out[axis.name] = float(value)
+        return out
 
     def position(self, axis: str, t: float | None = None) -> float:
         """Position of ``axis`` at ``t`` (default now); KeyError if unknown."""
-        return self.axes[axis].position(self.now() if t is None else t)
+        group = self._group_of[axis]
+        index = [a.name for a in self.groups[group].axes].index(axis)
+        return float(self.group_positions(group, t)[index])
+
+    def command(self, group: str, target: Sequence[float], t: float | None = None) -> float:
+        """Move ``group`` to ``target`` (one value per axis) from where it is at ``t``.
+
+        Returns the move's duration (s); raises ValueError outside an axis's
+        range. The move starts from rest: a mock need not blend into the
+        current motion.
+        """
+        axes = self.groups[group].axes
+        goal = np.asarray(target, dtype=np.float64)
+        if goal.shape != (len(axes),):
+            raise ValueError(f"group {group} has {len(axes)} axes, got {goal.size} values")
+        for axis, value in zip(axes, goal, strict=True):
+            if not axis.lo <= value <= axis.hi:
+                raise ValueError(f"{axis.name}: {value} outside [{axis.lo}, {axis.hi}]")
+        t = self.now() if t is None else t
+        with self._lock:
+            start = self.group_positions(group, t)
+            v = np.array([a.v_max for a in axes])
+            acc = np.array([a.a_max for a in axes])
+            move = plan_movej(start, goal, v, acc)
+            self._commanded[group] = _Commanded(t, move)
+        return move.duration
+
+    def command_axis(self, axis: str, target: float, t: float | None = None) -> float:
+        """Move one axis to ``target``; the other axes of its group hold their positions."""
+        group = self._group_of[axis]
+        t = self.now() if t is None else t
+        goal = self.group_positions(group, t).copy()
+        goal[[a.name for a in self.groups[group].axes].index(axis)] = target
+        return self.command(group, goal.tolist(), t)
+
+    def resume_demo(self, group: str) -> None:
+        """Return ``group`` to its demo cycle (it jumps to where the cycle is now)."""
+        self._commanded.pop(group, None)
+
+    def group_of(self, axis: str) -> str:
+        """The group an axis belongs to."""
+        return self._group_of[axis]
+
+
+__all__ = ["AxisGroup", "Machine", "SimAxis", "demo_groups"]
