@@ -17,8 +17,34 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
     parser.add_argument("--host", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, help="port to bind (default 8000)")
     parser.add_argument("--ctrlx", metavar="URL", help="ctrlX base URL (default: embedded mock)")
+    parser.add_argument(
+        "--mode",
+        choices=["subscribe", "poll", "get"],
+        help="how to follow the joints: subscribe (default, falls back to poll), poll (bulk "
+        "reads) or get (one request per node)",
+    )
+    parser.add_argument(
+        "--api", choices=["v2", "v1"], help="REST API generation (v1: older firmware)"
+    )
+    parser.add_argument(
+        "--ctrlx-ca", metavar="FILE", help="trust the certificates in FILE (the device's own)"
+    )
+    parser.add_argument(
+        "--insecure",
+        action="store_true",
+        default=None,
+        help="do not verify the controller's HTTPS certificate (not recommended)",
+    )
     args = parser.parse_args(argv)
-    overrides = {"host": args.host, "port": args.port, "ctrlx_url": args.ctrlx}
+    overrides = {
+        "host": args.host,
+        "port": args.port,
+        "ctrlx_url": args.ctrlx,
+        "ctrlx_mode": args.mode,
+        "ctrlx_api": args.api,
+        "ctrlx_ca": args.ctrlx_ca,
+        "insecure": args.insecure,
+    }
     return Settings(**{k: v for k, v in overrides.items() if v is not None})
 
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Literal
+
 from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
@@ -17,8 +20,18 @@ class Settings(BaseSettings):
     """Base URL of the ctrlX device, e.g. ``https://192.168.1.1``; None starts the embedded mock."""
     ctrlx_user: str = "boschrexroth"
     ctrlx_password: SecretStr = SecretStr("boschrexroth")
+    ctrlx_api: Literal["v2", "v1"] = "v2"
+    """REST API generation: ``v1`` for older firmware (token at api/v1.0, no bulk, no events)."""
+    ctrlx_mode: Literal["subscribe", "poll", "get"] = "subscribe"
+    """``subscribe`` (SSE, falls back to ``poll``), ``poll`` (bulk reads) or ``get`` (per node)."""
+    ctrlx_ca: Path | None = None
+    """PEM file of certificates to trust for HTTPS, e.g. the device's self-signed one."""
+    insecure: bool = False
+    """Skip HTTPS certificate verification (logged as a warning)."""
     poll_interval_s: float = Field(0.02, gt=0.0, le=10.0)
-    """Seconds between two reads of the joint nodes (0.02 = 50 Hz)."""
+    """Seconds between two samples of the joint nodes (0.02 = 50 Hz), polled or published."""
+    keepalive_s: float = Field(1.0, gt=0.0, le=600.0)
+    """Subscription keepalive interval; a stream silent 2.5 times as long is reopened."""
     request_timeout_s: float = Field(5.0, gt=0.0)
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""

@@ -11,7 +11,7 @@ from aiohttp import web
 
 from .cell import Robot, default_cell
 from .config import Settings
-from .ctrlx import Credentials, DataLayerClient
+from .ctrlx import Credentials, DataLayerClient, client_ssl
 from .mock_ctrlx import build_app, serve
 from .stream import Acquisition, Hub, PollSettings, SourceHealth
 
@@ -40,12 +40,15 @@ class Runtime:
         client = DataLayerClient(
             url,
             Credentials(settings.ctrlx_user, settings.ctrlx_password.get_secret_value()),
+            api=settings.ctrlx_api,
+            ssl_context=client_ssl(settings.ctrlx_ca, settings.insecure),
             timeout_s=settings.request_timeout_s,
         )
         health = SourceHealth(name="ctrlx", url=url)
-        acquisition = Acquisition(
-            client, runtime.robots, runtime.hub, health, PollSettings(settings.poll_interval_s)
+        poll = PollSettings(
+            settings.poll_interval_s, settings.ctrlx_mode, keepalive_s=settings.keepalive_s
         )
+        acquisition = Acquisition(client, runtime.robots, runtime.hub, health, poll)
         runtime._clients.append(client)
         runtime.sources.append(health)
         runtime._tasks.append(asyncio.create_task(acquisition.run(), name=f"acquire:{url}"))

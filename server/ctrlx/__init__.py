@@ -1,19 +1,48 @@
 """Client for the ctrlX CORE REST API: identity manager login and data-layer reads."""
 
-from .client import Credentials, DataLayerClient
-from .follow import Sample, follow
+from .auth import API_PATHS, ApiVersion, Token, TokenManager
+from .client import BulkRead, Credentials, DataLayerClient, Traffic
+from .events import SseEvent, SseParser, SubscriptionSettings
+from .follow import MODES, Mode, RetryPolicy, Sample, follow
 from .paths import encode_node_path
-from .problem import AuthError, BadValue, DataLayerError, NodeNotFound, ProblemError
+from .problem import (
+    AuthError,
+    BadValue,
+    DataLayerError,
+    NodeNotFound,
+    ProblemError,
+    StreamEnded,
+    Unsupported,
+)
+from .timestamps import filetime_from_unix, unix_from_filetime
+from .tls import client_ssl
 
 __all__ = [
+    "API_PATHS",
+    "MODES",
+    "ApiVersion",
     "AuthError",
     "BadValue",
+    "BulkRead",
     "Credentials",
     "DataLayerClient",
     "DataLayerError",
+    "Mode",
     "NodeNotFound",
     "ProblemError",
+    "RetryPolicy",
     "Sample",
+    "SseEvent",
+    "SseParser",
+    "StreamEnded",
+    "SubscriptionSettings",
+    "Token",
+    "TokenManager",
+    "Traffic",
+    "Unsupported",
+    "client_ssl",
     "encode_node_path",
+    "filetime_from_unix",
     "follow",
+    "unix_from_filetime",
 ]

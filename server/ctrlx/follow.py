@@ -1,14 +1,38 @@
-"""Following a set of nodes over time: a stream of samples, however they are fetched."""
+"""Following a set of nodes over time: a stream of samples, however they are fetched.
+
+Three ways, chosen by ``mode``:
+
+* ``subscribe``: one data-layer subscription, its events streamed (SSE). Falls
+  back to ``poll`` when the server offers no subscriptions.
+* ``poll``: one bulk read of every node per period. Falls back to ``get`` when
+  the server has no bulk service (older firmware).
+* ``get``: one GET per node per period, as the seed's relay did.
+
+Short interruptions of a source that was working (a stream that closes, a
+token that expires, a request that fails) are ridden out by reconnecting with
+exponential backoff and jitter; what lasts longer, or a source that never
+worked, is raised as DataLayerError for the caller to report and retry.
+"""
 
 from __future__ import annotations
 
 import asyncio
+import logging
+import math
+import random
 import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
+from typing import Literal
 
 from .client import DataLayerClient
-from .problem import DataLayerError
+from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update, decode_event
+from .problem import AuthError, DataLayerError, ProblemError, Unsupported
+
+log = logging.getLogger(__name__)
+
+Mode = Literal["subscribe", "poll", "get"]
+MODES: tuple[Mode, ...] = ("subscribe", "poll", "get")
 
 
 @dataclass(frozen=True)
@@ -24,34 +48,265 @@ class Sample:
     values: dict[str, float | Exception]
 
 
-async def poll(client: DataLayerClient, nodes: list[str], period_s: float) -> AsyncIterator[Sample]:
-    """Read every node once per ``period_s``; raises DataLayerError when no node can be read."""
+@dataclass(frozen=True)
+class RetryPolicy:
+    """How to ride out interruptions: delays grow from ``first_s`` to ``max_s``, with jitter."""
+
+    first_s: float = 0.05
+    max_s: float = 2.0
+    give_up_s: float = 5.0
+    """Raise to the caller once a working source has failed for this long."""
+
+    def delay(self, attempt: int) -> float:
+        """Seconds before reconnect ``attempt`` (0: at once, since most drops are one-offs)."""
+        if attempt == 0:
+            return 0.0
+        # Jitter spreads the reconnects of many clients after a controller restart.
+        return min(self.max_s, self.first_s * 2.0 ** (attempt - 1)) * random.uniform(0.5, 1.0)
+
+
+def follow(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    mode: Mode = "subscribe",
+    *,
+    keepalive_s: float = 1.0,
+    retry: RetryPolicy = RetryPolicy(),
+) -> AsyncIterator[Sample]:
+    """The samples of ``nodes``, about every ``period_s`` seconds, until cancelled.
+
+    ``keepalive_s`` is the subscription's keepalive interval; a stream silent
+    for 2.5 times as long counts as dead. Raises DataLayerError when the
+    source is unusable (see the module docstring).
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
+    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry)
+
+
+async def _follow(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    mode: Mode,
+    keepalive_s: float,
+    retry: RetryPolicy,
+) -> AsyncIterator[Sample]:
+    if mode == "subscribe":
+        try:
+            async for sample in _subscribe(client, nodes, period_s, keepalive_s, retry):
+                yield sample
+        except Unsupported as exc:
+            log.warning("%s: %s; polling with bulk reads instead", client.base_url, exc)
+        mode = "poll"
+    async for sample in _poll(client, nodes, period_s, mode == "poll", retry):
+        yield sample
+
+
+class _Interruptions:
+    """Decides, after a failure, whether to wait and reconnect or to give up."""
+
+    def __init__(self, policy: RetryPolicy) -> None:
+        self._policy = policy
+        self._worked = False
+        self._attempt = 0
+        self._since: float | None = None
+
+    def succeeded(self) -> None:
+        self._worked, self._attempt, self._since = True, 0, None
+
+    async def failed(self, exc: DataLayerError) -> None:
+        """Sleep before the next attempt, or raise ``exc`` if it is no passing interruption."""
+        now = time.monotonic()
+        self._since = now if self._since is None else self._since
+        if not (self._worked and _transient(exc)) or now - self._since > self._policy.give_up_s:
+            raise exc
+        delay = self._policy.delay(self._attempt)
+        self._attempt += 1
+        log.info("data layer interrupted (%s); retrying in %.2f s", exc, delay)
+        await asyncio.sleep(delay)
+
+
+def _transient(exc: DataLayerError) -> bool:
+    """True for failures that may pass by themselves (network, timeouts, 5xx, closed streams)."""
+    if isinstance(exc, AuthError | Unsupported):
+        return False
+    if isinstance(exc, ProblemError):
+        return exc.status >= 500 or exc.status in (408, 429)
+    return True
+
+
+class _Latest:
+    """The newest value of every node, gathered from events, handed out as Samples."""
+
+    def __init__(self, nodes: list[str], grace_s: float) -> None:
+        self._values: dict[str, float | Exception] = {}
+        self._nodes = nodes
+        self._grace_s = grace_s
+        self._opened = time.monotonic()
+        self._t: float | None = None
+        self._changed = False
+
+    def add(self, item: Update | Keepalive) -> None:
+        if isinstance(item, Update):
+            if item.node not in self._nodes:
+                return
+            self._values[item.node] = item.value
+        if item.t_source is not None:
+            self._t = item.t_source if self._t is None else max(self._t, item.t_source)
+        # A keepalive says "nothing changed until t": a fresh sample of the same values.
+        self._changed = True
+
+    def take(self) -> Sample | None:
+        """A sample if anything changed and every node was heard from (or waiting is over)."""
+        if not self._changed:
+            return None
+        complete = len(self._values) == len(self._nodes)
+        if not complete and time.monotonic() - self._opened < self._grace_s:
+            return None  # the initial events of some nodes are still on their way
+        self._changed = False
+        missing = DataLayerError("the subscription sent no value for this node")
+        values = {n: self._values.get(n, missing) for n in self._nodes}
+        return _checked(Sample(self._t if self._t is not None else time.time(), values))
+
+
+async def _subscribe(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    keepalive_s: float,
+    retry: RetryPolicy,
+) -> AsyncIterator[Sample]:
+    settings = SubscriptionSettings(
+        publish_interval_ms=max(1, round(period_s * 1000)),
+        keepalive_interval_ms=max(1, round(keepalive_s * 1000)),
+        error_interval_ms=max(1, round(keepalive_s * 1000)),
+    )
+    subscription = Subscription(client, nodes, settings)
+    interruptions = _Interruptions(retry)
+    latest = _Latest(nodes, grace_s=keepalive_s)
+    stream: EventStream | None = None
+    log.info(
+        "%s: subscribing to %d nodes (publish every %d ms)",
+        client.base_url,
+        len(nodes),
+        settings.publish_interval_ms,
+    )
+    try:
+        while True:
+            try:
+                if stream is None:
+                    stream = await subscription.open()
+                renew_at = client.tokens.renew_at
+                wait = math.inf if renew_at is None else renew_at - time.time()
+                if wait <= 0.0:
+                    stream = await _hand_over(client, subscription, stream)
+                    continue
+                events = await stream.next_chunk(wait)
+                if events is None:
+                    continue
+                for event in events:
+                    item = decode_event(event, client.paths.nodes)
+                    if item is not None:
+                        latest.add(item)
+            except Unsupported:
+                raise
+            except DataLayerError as exc:
+                if stream is not None:
+                    stream.close()
+                stream = None
+                await interruptions.failed(exc)
+                continue
+            if stream.mid_event:
+                continue  # the rest of this publish cycle is in the next chunk
+            sample = latest.take()
+            if sample is not None:
+                interruptions.succeeded()
+                yield sample
+    finally:
+        if stream is not None:
+            stream.close()
+        await subscription.delete()
+
+
+async def _hand_over(
+    client: DataLayerClient, subscription: Subscription, old: EventStream
+) -> EventStream:
+    """Make before break: open a stream with a fresh token, then drop the old one.
+
+    A server may end a stream when the token it was opened with expires, so
+    the new stream must be running by then or viewers would see a gap.
+    """
+    await client.tokens.current()
+    try:
+        fresh = await subscription.open()
+    finally:
+        old.close()
+    return fresh
+
+
+async def _poll(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    use_bulk: bool,
+    retry: RetryPolicy,
+) -> AsyncIterator[Sample]:
+    interruptions = _Interruptions(retry)
+    how = "bulk reads" if use_bulk else "one GET per node"
+    log.info("%s: polling %d nodes every %g s (%s)", client.base_url, len(nodes), period_s, how)
     next_tick = time.monotonic()
     while True:
-        yield await read_all(client, nodes)
+        try:
+            sample = await (_read_bulk(client, nodes) if use_bulk else read_all(client, nodes))
+        except Unsupported as exc:
+            log.warning("%s: %s; one GET per node instead", client.base_url, exc)
+            use_bulk = False
+            continue
+        except DataLayerError as exc:
+            await interruptions.failed(exc)
+            continue
+        interruptions.succeeded()
+        yield sample
         next_tick += period_s
         delay = next_tick - time.monotonic()
         if delay < 0.0:  # fell behind: skip the missed ticks rather than burst
-            next_tick = time.monotonic()
-        await asyncio.sleep(max(delay, 0.0))
+            next_tick, delay = time.monotonic(), 0.0
+        await asyncio.sleep(delay)
+
+
+async def _read_bulk(client: DataLayerClient, nodes: list[str]) -> Sample:
+    wall, mono = time.time(), time.monotonic()
+    read = await client.bulk_read(nodes)
+    t_source = read.t_source if read.t_source is not None else _midpoint(wall, mono)
+    return _checked(Sample(t_source, read.values))
 
 
 async def read_all(client: DataLayerClient, nodes: list[str]) -> Sample:
-    """One concurrent read of ``nodes``; raises when all of them fail (the source is unusable)."""
+    """One concurrent GET per node; raises when all of them fail (the source is unusable).
+
+    A plain GET carries no timestamp, so the sample time is the middle of the
+    round trip.
+    """
+    wall, mono = time.time(), time.monotonic()
     results = await asyncio.gather(*(client.read_number(n) for n in nodes), return_exceptions=True)
-    t_source = time.time()
     values: dict[str, float | Exception] = {}
     for node, result in zip(nodes, results, strict=True):
         if isinstance(result, BaseException) and not isinstance(result, Exception):
             raise result
         values[node] = result
-    failures = [v for v in values.values() if isinstance(v, Exception)]
-    if failures and len(failures) == len(values):
+    return _checked(Sample(_midpoint(wall, mono), values))
+
+
+def _checked(sample: Sample) -> Sample:
+    """``sample``, unless every node failed: then the source as a whole is unusable."""
+    failures = [v for v in sample.values.values() if isinstance(v, Exception)]
+    if failures and len(failures) == len(sample.values):
         first = failures[0]
         raise first if isinstance(first, DataLayerError) else DataLayerError(str(first))
-    return Sample(t_source, values)
+    return sample
 
 
-def follow(client: DataLayerClient, nodes: list[str], period_s: float) -> AsyncIterator[Sample]:
-    """The samples of ``nodes``, about every ``period_s`` seconds."""
-    return poll(client, nodes, period_s)
+def _midpoint(wall: float, mono: float) -> float:
+    return wall + (time.monotonic() - mono) / 2.0

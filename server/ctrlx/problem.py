@@ -40,8 +40,9 @@ class ProblemError(DataLayerError):
     def from_body(cls, status: int, body: Any, fallback_title: str) -> ProblemError:
         """Build from a decoded response body, tolerating bodies that are not Problems."""
         if isinstance(body, dict):
+            raw_status = body.get("status", status)
             return cls(
-                status=int(body.get("status", status)),
+                status=raw_status if isinstance(raw_status, int) else status,
                 title=str(body.get("title") or fallback_title),
                 detail=_str_or_none(body.get("detail")),
                 instance=_str_or_none(body.get("instance")),
@@ -62,10 +63,37 @@ class BadValue(DataLayerError):
     """A node answered with a value we cannot use (not a number, wrong type)."""
 
 
+class Unsupported(DataLayerError):
+    """The server lacks a service (subscriptions, bulk): older firmware, or switched off."""
+
+
+class StreamEnded(DataLayerError):
+    """An event stream closed, fell silent past its keepalive, or sent garbage."""
+
+
 def problem_for_status(status: int, body: Any, fallback_title: str) -> ProblemError:
     """The most specific ProblemError subclass for an HTTP status."""
     kind: type[ProblemError] = {401: AuthError, 404: NodeNotFound}.get(status, ProblemError)
     return kind.from_body(status, body, fallback_title)
+
+
+RESULT_STATUS = {
+    "DL_INVALID_ADDRESS": 404,
+    "DL_PERMISSION_DENIED": 403,
+    "DL_TYPE_MISMATCH": 400,
+    "DL_INVALID_VALUE": 400,
+    "DL_INVALID_OPERATION": 400,
+    "DL_UNSUPPORTED": 400,
+}
+"""Data-layer result codes (as in bulk answers) and the HTTP status a single request gets."""
+
+
+def problem_for_result(node: str, result: str, body: Any) -> ProblemError:
+    """The error for one failed entry of a bulk answer (``result`` is e.g. DL_INVALID_ADDRESS)."""
+    status = RESULT_STATUS.get(result, 500)
+    if isinstance(body, dict) and "title" in body:
+        return problem_for_status(status, body, result)
+    return problem_for_status(status, {"title": result, "detail": f"node '{node}'"}, result)
 
 
 def _str_or_none(value: Any) -> str | None:

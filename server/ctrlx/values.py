@@ -1,4 +1,4 @@
-"""Turn data-layer ``{"type": ..., "value": ...}`` bodies into floats."""
+"""Turn data-layer ``{"type": ..., "value": ...}`` bodies into numbers."""
 
 from __future__ import annotations
 
@@ -24,13 +24,14 @@ SCALAR_TYPES = frozenset(
     }
 )
 ARRAY_TYPES = frozenset({"arfloat64", "arfloat32", "ardouble", "arfloat"})
+"""Float arrays under their current names and the names older firmware used."""
 
 
 def number_from_data(node: str, body: Any) -> float:
     """The numeric value of a node read; raises BadValue with the node named otherwise.
 
-    The object node ``.../state/values/actual`` answers ``{"actualPos": ...}``;
-    its position is taken as the value.
+    The object node ``.../state/values/actual`` answers
+    ``{"actualPos": ..., "actualPosUnit": ...}``; its position is the value.
     """
     if not isinstance(body, dict) or "value" not in body:
         raise BadValue(f"{node}: answer has no 'value' field")
@@ -41,6 +42,28 @@ def number_from_data(node: str, body: Any) -> float:
         raise BadValue(f"{node}: is an array ({kind}), expected a single number")
     elif kind is not None and kind not in SCALAR_TYPES and kind != "object":
         raise BadValue(f"{node}: has type {kind!r}, expected a number")
+    return _finite(node, value)
+
+
+def numbers_from_data(node: str, body: Any) -> list[float]:
+    """The values of a float-array node (``arfloat64``, ``arfloat32``; older ``ardouble``...)."""
+    if not isinstance(body, dict) or "value" not in body:
+        raise BadValue(f"{node}: answer has no 'value' field")
+    kind, value = body.get("type"), body["value"]
+    if kind not in ARRAY_TYPES or not isinstance(value, list):
+        raise BadValue(f"{node}: has type {kind!r}, expected an array of numbers")
+    return [_finite(node, v) for v in value]
+
+
+def unit_from_data(body: Any) -> str | None:
+    """The unit an object node states (``actualPosUnit``), if any."""
+    value = body.get("value") if isinstance(body, dict) else None
+    unit = value.get("actualPosUnit") if isinstance(value, dict) else None
+    return unit if isinstance(unit, str) else None
+
+
+def _finite(node: str, value: Any) -> float:
+    # bool is an int subclass in Python, but a bool8 node is no joint value.
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise BadValue(f"{node}: value {value!r} is not a number")
     number = float(value)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cell import Robot
-from ..ctrlx import DataLayerClient, DataLayerError, Sample, follow
+from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
 from .frames import compute_frame
 from .hub import Hub
 from .status import SourceHealth
@@ -28,6 +28,9 @@ class PollSettings:
     """How often to read, and how long to wait after the source failed."""
 
     period_s: float = 0.02
+    mode: Mode = "subscribe"
+    """How samples are fetched: ``subscribe`` (falls back to ``poll``), ``poll`` or ``get``."""
+    keepalive_s: float = 1.0
     retry_min_s: float = 0.5
     retry_max_s: float = 10.0
 
@@ -56,7 +59,14 @@ class Acquisition:
         retry = self._settings.retry_min_s
         while True:
             try:
-                async for sample in follow(self._client, self._nodes, self._settings.period_s):
+                samples = follow(
+                    self._client,
+                    self._nodes,
+                    self._settings.period_s,
+                    self._settings.mode,
+                    keepalive_s=self._settings.keepalive_s,
+                )
+                async for sample in samples:
                     retry = self._settings.retry_min_s
                     self._seq += 1
                     if self.health.mark_sample(sample.t_source):

@@ -1,0 +1,282 @@
+"""Data-layer subscriptions: create one, open its server-sent event stream, parse the events."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import secrets
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import unquote
+
+import aiohttp
+import orjson
+
+from .client import REFUSED, DataLayerClient
+from .problem import (
+    DataLayerError,
+    ProblemError,
+    StreamEnded,
+    Unsupported,
+    problem_for_status,
+)
+from .timestamps import parse_filetime
+from .values import number_from_data
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SseEvent:
+    """One server-sent event: its type, id and (joined) data lines."""
+
+    event: str
+    id: str | None
+    data: str
+
+
+class SseParser:
+    """Incremental ``text/event-stream`` parser (WHATWG rules: fields, comments, blank lines)."""
+
+    def __init__(self) -> None:
+        self._buffer = b""
+        self._event = ""
+        self._id: str | None = None
+        self._data: list[str] = []
+
+    @property
+    def pending(self) -> bool:
+        """True while a partly received event waits for more bytes."""
+        return bool(self._buffer or self._data or self._event)
+
+    def feed(self, chunk: bytes) -> list[SseEvent]:
+        """The events completed by ``chunk``."""
+        data, pos = self._buffer + chunk, 0
+        events: list[SseEvent] = []
+        while (cut := _line_end(data, pos)) is not None:
+            end, after = cut
+            self._line(data[pos:end].decode("utf-8", "replace"), events)
+            pos = after
+        self._buffer = data[pos:]
+        return events
+
+    def _line(self, line: str, events: list[SseEvent]) -> None:
+        if not line:
+            if self._data:
+                events.append(SseEvent(self._event or "message", self._id, "\n".join(self._data)))
+            self._event, self._data = "", []
+            return
+        if line.startswith(":"):
+            return  # a comment; some servers send them as heartbeats
+        name, _, value = line.partition(":")
+        value = value[1:] if value.startswith(" ") else value
+        if name == "event":
+            self._event = value.strip()
+        elif name == "data":
+            self._data.append(value)
+        elif name == "id":
+            self._id = value.strip()
+
+
+def _line_end(data: bytes, pos: int) -> tuple[int, int] | None:
+    """Where the line starting at ``pos`` ends and the next begins (CRLF, LF or CR)."""
+    lf, cr = data.find(b"\n", pos), data.find(b"\r", pos)
+    if cr == -1 or (lf != -1 and lf < cr):
+        return None if lf == -1 else (lf, lf + 1)
+    if cr + 1 == len(data):
+        return None  # a CR at the end may be the first half of a CRLF
+    return cr, cr + 2 if data[cr + 1] == 0x0A else cr + 1
+
+
+@dataclass(frozen=True)
+class SubscriptionSettings:
+    """Subscription properties: intervals in ms as the data layer takes them (sampling in µs)."""
+
+    publish_interval_ms: int = 20
+    keepalive_interval_ms: int = 1000
+    error_interval_ms: int = 1000
+    sampling_interval_us: int | None = None
+    """Defaults to the publish interval."""
+
+    def properties(self, subscription_id: str) -> dict[str, Any]:
+        """The ``properties`` object of ``POST /events``."""
+        sampling = self.sampling_interval_us or self.publish_interval_ms * 1000
+        return {
+            "id": subscription_id,
+            "publishInterval": self.publish_interval_ms,
+            "keepaliveInterval": self.keepalive_interval_ms,
+            "errorInterval": self.error_interval_ms,
+            "rules": [{"rule_type": "Sampling", "rule": {"samplingInterval": sampling}}],
+        }
+
+
+@dataclass(frozen=True)
+class Update:
+    """A node's new value (or why it has none) at data-layer time ``t_source`` (unix s)."""
+
+    node: str
+    t_source: float | None
+    value: float | Exception
+
+
+@dataclass(frozen=True)
+class Keepalive:
+    """The stream is alive; nothing changed up to ``t_source`` (unix s, if stated)."""
+
+    t_source: float | None
+
+
+def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | None:
+    """Turn one SSE event into an Update or Keepalive; None for events we do not use.
+
+    An ``error`` event that names no node is a failure of the whole stream and
+    is raised.
+    """
+    if event.event not in ("update", "keepalive", "error"):
+        return None
+    try:
+        data = orjson.loads(event.data) if event.data.strip() else {}
+    except orjson.JSONDecodeError as exc:
+        raise StreamEnded(f"event stream sent malformed JSON: {event.data[:80]!r}") from exc
+    if not isinstance(data, dict):
+        data = {}
+    t_source = parse_filetime(data.get("timestamp"))
+    if event.event == "keepalive":
+        return Keepalive(t_source)
+    node = data.get("node")
+    if event.event == "error":
+        problem = problem_for_status(int(data.get("status") or 500), data, "subscription error")
+        node = node if isinstance(node, str) else _node_of_instance(problem, nodes_prefix)
+        if node is None:
+            raise problem
+        return Update(node, t_source, problem)
+    if not isinstance(node, str):
+        raise StreamEnded("update event without a node")
+    value: float | Exception
+    try:
+        value = number_from_data(node, data)
+    except DataLayerError as exc:
+        value = exc
+    return Update(node, t_source, value)
+
+
+def _node_of_instance(problem: ProblemError, nodes_prefix: str) -> str | None:
+    """The node an error names in ``instance`` (``/automation/api/v2/nodes/<path>``)."""
+    if problem.instance and problem.instance.startswith(nodes_prefix):
+        return unquote(problem.instance[len(nodes_prefix) :])
+    return None
+
+
+class EventStream:
+    """One open event stream: chunks of decoded events, and a watchdog on silence."""
+
+    def __init__(
+        self, response: aiohttp.ClientResponse, client: DataLayerClient, dead_after_s: float
+    ) -> None:
+        self._response = response
+        self._client = client
+        self._parser = SseParser()
+        self.dead_after_s = dead_after_s
+
+    async def next_chunk(self, timeout_s: float) -> list[SseEvent] | None:
+        """Events of the next network chunk; None if ``timeout_s`` passed first.
+
+        Raises StreamEnded when the server closes the stream or stays silent
+        (no update, no keepalive) longer than ``dead_after_s``.
+        """
+        limit = min(timeout_s, self.dead_after_s)
+        try:
+            async with asyncio.timeout(max(limit, 0.0)):
+                chunk = await self._response.content.readany()
+        except TimeoutError:
+            if limit >= self.dead_after_s:
+                raise StreamEnded(
+                    f"event stream silent for {self.dead_after_s:g} s (no keepalive)"
+                ) from None
+            return None
+        except aiohttp.ClientError as exc:
+            raise StreamEnded(f"event stream broke: {exc or type(exc).__name__}") from exc
+        if not chunk:
+            raise StreamEnded("the server closed the event stream")
+        self._client.traffic.bytes_in += len(chunk)
+        return self._parser.feed(chunk)
+
+    @property
+    def mid_event(self) -> bool:
+        """True when the last chunk ended inside an event."""
+        return self._parser.pending
+
+    def close(self) -> None:
+        """Drop the connection (there is no polite way to end an SSE response)."""
+        self._response.close()
+
+
+class Subscription:
+    """A subscription to ``nodes``; open its stream as often as needed (it is reused).
+
+    Tries ``POST /events`` with properties first, then the short form
+    ``GET /events?nodes=...&publishIntervalMs=N``; raises Unsupported when
+    the server has neither.
+    """
+
+    def __init__(
+        self, client: DataLayerClient, nodes: list[str], settings: SubscriptionSettings
+    ) -> None:
+        self._client = client
+        self.nodes = nodes
+        self.settings = settings
+        self.id = f"linkview-{secrets.token_hex(6)}"
+        self._created = False
+        self._short_form = False
+
+    async def open(self) -> EventStream:
+        """Open a new event stream of this subscription."""
+        events = self._client.paths.events
+        if events is None or self._client.capabilities.subscribe is False:
+            raise Unsupported("this data layer offers no subscriptions")
+        dead_after = 2.5 * self.settings.keepalive_interval_ms / 1000.0
+        try:
+            if not self._short_form and not self._created:
+                await self._create(events)
+            if self._short_form:
+                params = {
+                    "nodes": ",".join(self.nodes),
+                    "publishIntervalMs": str(self.settings.publish_interval_ms),
+                }
+                response = await self._client.open_stream(events, params=params)
+            else:
+                try:
+                    response = await self._client.open_stream(f"{events}/{self.id}")
+                except Unsupported:
+                    # The server forgot the subscription (unused for a minute): make it again.
+                    self._created = False
+                    await self._create(events)
+                    response = await self._client.open_stream(f"{events}/{self.id}")
+        except Unsupported:
+            self._client.capabilities.subscribe = False
+            raise
+        self._client.capabilities.subscribe = True
+        return EventStream(response, self._client, dead_after)
+
+    async def _create(self, events: str) -> None:
+        body = {"properties": self.settings.properties(self.id), "nodes": self.nodes}
+        try:
+            await self._client.request("POST", events, json=body)
+            self._created = True
+        except ProblemError as exc:
+            if exc.status not in REFUSED:
+                raise
+            log.info("POST %s refused (%s); trying the short form", events, exc.status)
+            self._short_form = True
+
+    async def delete(self) -> None:
+        """Delete the subscription on the server (best effort; it expires anyway)."""
+        events = self._client.paths.events
+        if not self._created or events is None:
+            return
+        self._created = False
+        try:
+            async with asyncio.timeout(2.0):
+                await self._client.request("DELETE", f"{events}/{self.id}")
+        except (DataLayerError, TimeoutError) as exc:
+            log.debug("deleting subscription %s failed: %s", self.id, exc)
