@@ -76,7 +76,7 @@ def check_positive(value: float, what: str) -> float:
 def check_fraction(value: float, what: str) -> float:
     v = float(value)
     if not 0.0 < v <= 1.0:
-        raise ValueError(f"{what} must be in range (0, 1], got {value!r}")
+        raise ValueError(f"{what} must be in range of (0, 1], got {value!r}")
     return v
 
 

@@ -57,6 +57,8 @@ class LinearCalibration:
 
 def _positions(samples: npt.ArrayLike, what: str, at_least: int) -> Array:
     pts = np.array(samples, dtype=np.float64)
+    if pts.size == 0:
+        pts = pts.reshape(0, 3)
     if pts.ndim != 2 or pts.shape[1] not in (3, 6):
         raise ValueError(f"{what} must be an array of poses [x, y, z, rx, ry, rz], got {pts.shape}")
     if pts.shape[0] < at_least:

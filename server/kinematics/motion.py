@@ -62,9 +62,16 @@ class _VelocityRamps:
 
 def _ramps(start: Array, knots: list[float], velocities: list[Array]) -> _VelocityRamps:
     """Integrate a piecewise-linear velocity, dropping zero-length segments."""
-    keep = [0] + [i for i in range(1, len(knots)) if knots[i] > knots[i - 1]]
-    t = np.asarray([knots[i] for i in keep], dtype=np.float64)
-    v = np.stack([velocities[i] for i in keep])
+    times, vels = [knots[0]], [velocities[0]]
+    for time, vel in zip(knots[1:], velocities[1:], strict=True):
+        if time > times[-1]:
+            times.append(time)
+            vels.append(vel)
+        else:
+            # A segment too short to resolve in time: its end velocity wins.
+            vels[-1] = vel
+    t = np.asarray(times, dtype=np.float64)
+    v = np.stack(vels)
     dt = np.diff(t)[:, None]
     slope = np.zeros_like(v)
     slope[:-1] = np.diff(v, axis=0) / dt
@@ -137,8 +144,10 @@ def plan_movej(
     In progress units (``s`` from 0 to 1) axis ``i`` allows velocity
     ``v_max_i / |d_i|`` and acceleration ``a_max_i / |d_i|``; the smallest of
     each (the most constraining axis) is used by all, so no axis exceeds its
-    limits and all finish together. Axes with zero distance stand still; if
-    every distance is zero the move has zero duration.
+    limits and all finish together. With ``V`` and ``A`` those smallest
+    values, the duration is ``1 / V + V / A``, or ``2 / sqrt(A)`` when
+    ``V^2 >= A`` (triangular: cruise speed is never reached). Axes with zero
+    distance stand still; if every distance is zero the move has zero duration.
     """
     start = _positions(q0, "q0")
     end = _positions(q1, "q1")
@@ -156,16 +165,20 @@ def plan_movej(
             np.zeros(1), end[None, :].copy(), zero[None, :], zero[None, :],
             start, end, 0.0, 0.0, zero, zero,
         )
-    rate = float(np.min(v_lim[moving] / span[moving]))
-    accel = float(np.min(a_lim[moving] / span[moving]))
-    if rate * rate >= accel:
+    # Seconds (and seconds squared) the slowest axis needs per unit of progress;
+    # written as span / limit so tiny distances cannot overflow.
+    tiny = float(np.finfo(np.float64).smallest_subnormal)
+    tau_v = max(float(np.max(span / v_lim)), tiny)
+    tau_a = max(float(np.max(span / a_lim)), tiny)
+    if tau_a >= tau_v * tau_v:
         # Half the distance is covered accelerating before cruise speed is reached.
-        accel_time = math.sqrt(1.0 / accel)
-        rate = accel * accel_time
+        accel_time = math.sqrt(tau_a)
         cruise_time = 0.0
+        rate = 1.0 / accel_time
     else:
-        accel_time = rate / accel
-        cruise_time = 1.0 / rate - accel_time
+        accel_time = tau_a / tau_v
+        cruise_time = tau_v - accel_time
+        rate = 1.0 / tau_v
     peak_v = dist * rate
     zero = np.zeros(n)
     ramps = _ramps(
@@ -178,7 +191,7 @@ def plan_movej(
     knot_position[-1] = end
     return TrapezoidMove(
         ramps.knots, knot_position, ramps.knot_velocity, ramps.slope,
-        start, end, accel_time, cruise_time, np.abs(peak_v), span * accel,
+        start, end, accel_time, cruise_time, np.abs(peak_v), span / tau_a,
     )
 
 
