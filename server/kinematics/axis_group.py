@@ -43,6 +43,7 @@ from .motion import SpeedMove, TrapezoidMove, plan_movej, plan_speedj
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
+
 class WorldModel:
     """Axis groups and their external axes, seed 003's ``axis_group_*`` API in Python."""
 
