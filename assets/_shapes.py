@@ -22,12 +22,15 @@ SHARP = np.radians(35.0)
 """Faces meeting at more than this angle get separate normals."""
 
 
-def material(name: str, rgb: tuple[float, float, float], metallic: float = 0.1,
-             roughness: float = 0.55) -> PBRMaterial:
+def material(
+    name: str, rgb: tuple[float, float, float], metallic: float = 0.1, roughness: float = 0.55
+) -> PBRMaterial:
     """A named glTF metallic-roughness material with an sRGB base colour in [0, 1]."""
+    # glTF colour factors are linear; the colours here are picked in sRGB.
+    linear = [round(((c + 0.055) / 1.055) ** 2.4 if c > 0.04045 else c / 12.92, 6) for c in rgb]
     return PBRMaterial(
         name=name,
-        baseColorFactor=[*rgb, 1.0],
+        baseColorFactor=[*linear, 1.0],
         metallicFactor=metallic,
         roughnessFactor=roughness,
         doubleSided=False,
@@ -75,7 +78,9 @@ def lathe(profile: list[tuple[float, float]], sections: int = SECTIONS) -> trime
     return trimesh.creation.revolve(np.asarray(profile, dtype=np.float64), sections=sections)
 
 
-def _arc(cx: float, cz: float, r: float, a0: float, a1: float, n: int = 8) -> list[tuple[float, float]]:
+def _arc(
+    cx: float, cz: float, r: float, a0: float, a1: float, n: int = 8
+) -> list[tuple[float, float]]:
     """Points of a profile arc centred at (cx, cz), from angle a0 to a1 (degrees)."""
     angles = np.radians(np.linspace(a0, a1, n + 1))
     return [(cx + r * float(np.cos(a)), cz + r * float(np.sin(a))) for a in angles]
@@ -86,14 +91,17 @@ def cylinder(radius: float, z0: float, z1: float, sections: int = SECTIONS) -> t
     return lathe([(0.0, z0), (radius, z0), (radius, z1), (0.0, z1)], sections)
 
 
-def tube(r_in: float, r_out: float, z0: float, z1: float, sections: int = SECTIONS) -> trimesh.Trimesh:
+def tube(
+    r_in: float, r_out: float, z0: float, z1: float, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Hollow cylinder (a ring) about Z from ``z0`` to ``z1``."""
     profile = np.array([(r_in, z0), (r_out, z0), (r_out, z1), (r_in, z1), (r_in, z0)])
     return trimesh.creation.revolve(profile, sections=sections)
 
 
-def rounded_cylinder(radius: float, z0: float, z1: float, fillet: float,
-                     sections: int = SECTIONS) -> trimesh.Trimesh:
+def rounded_cylinder(
+    radius: float, z0: float, z1: float, fillet: float, sections: int = SECTIONS
+) -> trimesh.Trimesh:
     """Cylinder about Z from ``z0`` to ``z1`` whose rims are rounded with radius ``fillet``."""
     profile = [(0.0, z0)]
     profile += _arc(radius - fillet, z0 + fillet, fillet, -90.0, 0.0)
@@ -119,8 +127,13 @@ def _square_point(c: float, r: float, angle: float, round_side: bool) -> tuple[f
     return c + r * ca * scale, r * sa * scale
 
 
-def bar(stations: list[tuple[float, float]], half_width: float, z0: float, z1: float,
-        sections: int = SECTIONS) -> trimesh.Trimesh:
+def bar(
+    stations: list[tuple[float, float]],
+    half_width: float,
+    z0: float,
+    z1: float,
+    sections: int = SECTIONS,
+) -> trimesh.Trimesh:
     """A flat bar along +X with round ends and a hole (or none) at each station.
 
     ``stations`` are ``(x, hole_radius)`` sorted by x; radius 0 means solid. The
@@ -163,7 +176,7 @@ def bar(stations: list[tuple[float, float]], half_width: float, z0: float, z1: f
     # edge of cell k+1 are sampled at the same heights y = r * tan(angle).
     quarter = sections // 8
     for (c0, _), (c1, _) in zip(stations[:-1], stations[1:], strict=True):
-        ys = [r * float(np.tan(a)) for a in angles[:quarter + 1]]
+        ys = [r * float(np.tan(a)) for a in angles[: quarter + 1]]
         ys = sorted({round(y, 12) for y in ys} | {round(-y, 12) for y in ys})
         left = [vid((c0 + r, y)) for y in ys]
         right = [vid((c1 - r, y)) for y in ys]
@@ -175,7 +188,9 @@ def bar(stations: list[tuple[float, float]], half_width: float, z0: float, z1: f
 def _extrude(v2: Array, f2: npt.NDArray[np.int64], z0: float, z1: float) -> trimesh.Trimesh:
     """Prism from a counter-clockwise planar triangulation: caps plus walls on its boundary."""
     n = len(v2)
-    vertices = np.vstack([np.column_stack([v2, np.full(n, z0)]), np.column_stack([v2, np.full(n, z1)])])
+    vertices = np.vstack(
+        [np.column_stack([v2, np.full(n, z0)]), np.column_stack([v2, np.full(n, z1)])]
+    )
     edges = np.vstack([f2[:, [0, 1]], f2[:, [1, 2]], f2[:, [2, 0]]])
     undirected = np.sort(edges, axis=1)
     _, inverse, counts = np.unique(undirected, axis=0, return_inverse=True, return_counts=True)

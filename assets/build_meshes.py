@@ -156,7 +156,7 @@ def iiwa7() -> dict[str, list[Part]]:
 
 # -- positioner: 2-axis tilt/rotate table -------------------------------------------
 POS_BASE = material("positioner_base", (0.27, 0.30, 0.35), metallic=0.2, roughness=0.6)
-POS_TEAL = material("positioner_teal", (0.10, 0.58, 0.52), metallic=0.15, roughness=0.45)
+POS_TEAL = material("positioner_teal", (0.05, 0.50, 0.46), metallic=0.15, roughness=0.45)
 POS_TABLE = material("positioner_table", (0.78, 0.80, 0.82), metallic=0.4, roughness=0.35)
 POS_MARK = material("positioner_mark", (0.90, 0.16, 0.12), metallic=0.0, roughness=0.5)
 TILT_Z = 0.45
@@ -179,10 +179,14 @@ def positioner() -> dict[str, list[Part]]:
     base = [
         ("base_plate", box(-0.46, 0.46, -0.26, 0.26, 0.0, 0.03), POS_BASE),
         ("base_uprights", concat(*uprights), POS_BASE),
-        ("base_bearings", concat(
-            _along_x(cylinder(0.05, 0.38, 0.40), TILT_Z),
-            _along_x(cylinder(0.05, -0.40, -0.38), TILT_Z),
-        ), DARK),
+        (
+            "base_bearings",
+            concat(
+                _along_x(cylinder(0.05, 0.38, 0.40), TILT_Z),
+                _along_x(cylinder(0.05, -0.40, -0.38), TILT_Z),
+            ),
+            DARK,
+        ),
         ("base_motor", _along_x(rounded_cylinder(0.055, 0.40, 0.53, 0.01), TILT_Z), GREY),
     ]
 
@@ -192,8 +196,13 @@ def positioner() -> dict[str, list[Part]]:
         z0, z1 = sorted((side * 0.27, side * 0.30))
         arms += [box(-0.075, 0.0, -0.10, 0.10, z0, z1), cylinder(0.10, z0, z1)]
     tilt = [
-        ("tilt_cradle", concat(box(-0.075, -0.045, -0.27, 0.27, -0.30, 0.30), *arms), POS_TEAL),
-        ("tilt_trunnions", concat(cylinder(0.035, 0.30, 0.32), cylinder(0.035, -0.32, -0.30)), DARK),
+        ("tilt_plate", box(-0.075, -0.045, -0.27, 0.27, -0.30, 0.30), POS_TEAL),
+        ("tilt_arms", concat(*arms), POS_TEAL),
+        (
+            "tilt_trunnions",
+            concat(cylinder(0.035, 0.30, 0.32), cylinder(0.035, -0.32, -0.30)),
+            DARK,
+        ),
         ("tilt_drive", moved(rounded_cylinder(0.07, -0.045, 0.05, 0.012), rot("y", 90.0)), GREY),
     ]
 
@@ -204,7 +213,11 @@ def positioner() -> dict[str, list[Part]]:
     table = [
         ("table_disc", rounded_cylinder(TABLE_RADIUS, -0.02, 0.0, 0.004), POS_TABLE),
         ("table_slots", concat(*slots, tube(0.02, 0.035, -0.001, 0.0015)), DARK),
-        ("table_mark", moved(cylinder(0.012, -0.001, 0.006, sections=32), at(0.235 - 0.012)), POS_MARK),
+        (
+            "table_mark",
+            moved(cylinder(0.012, -0.001, 0.006, sections=32), at(0.235 - 0.012)),
+            POS_MARK,
+        ),
     ]
     return {"base": base, "tilt": tilt, "table": table}
 
@@ -238,8 +251,12 @@ def build(out_dir: Path) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent,
-                        help="output directory (default: assets/)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path(__file__).resolve().parent,
+        help="output directory (default: assets/)",
+    )
     args = parser.parse_args(argv)
     for path in build(args.out):
         print(f"{path.stat().st_size:8d}  {path}")
