@@ -201,3 +201,42 @@ def test_positioner_table_surface_is_its_origin() -> None:
     assert (z0, z1) == (pytest.approx(-0.02, abs=TOL), pytest.approx(0.0, abs=TOL))
     slots = bounds("positioner", "table", "table_slots")
     assert slots[1, 2] > 0.0, "slots must show above the surface so the rotation is visible"
+
+
+# -- agreement with the server's kinematics ----------------------------------------------------
+
+
+def _apply(pose: np.ndarray, point: list[float]) -> np.ndarray:
+    return np.asarray(pose[:3, :3] @ np.asarray(point) + pose[:3, 3])
+
+
+def test_kin12_holes_meet_where_the_kinematics_joins_the_bars() -> None:
+    """Hole x positions (checked against the meshes above) joined by Type12.link_poses."""
+    from server.kinematics import Type12
+
+    rng = np.random.default_rng(0)
+    q = rng.uniform(-0.5, 0.5, size=(50, 2))
+    poses, ok = Type12().link_poses(q)
+    assert ok.all()
+    for pose in poses:
+        l1, l5, l4, l2 = pose
+        joints = [
+            ("T", _apply(l1, [BAR["L1"][1][1], 0, 0]), _apply(l2, [0, 0, 0])),
+            ("W", _apply(l5, [BAR["L5"][1][1], 0, 0]), _apply(l4, [0, 0, 0])),
+            ("E", _apply(l4, [BAR["L4"][1][1], 0, 0]), _apply(l2, [BAR["L2"][1][1], 0, 0])),
+        ]
+        for name, a, b in joints:
+            np.testing.assert_allclose(a, b, atol=1e-9, err_msg=name)
+
+
+def test_positioner_table_rests_on_the_cradle_at_every_tilt() -> None:
+    from server.cell.default import positioner
+
+    for tilt in np.radians([-60.0, 0.0, 45.0]):
+        poses, ok = positioner().kinematics.link_poses(np.array([tilt, 0.3]))
+        assert ok
+        _, tilt_pose, table_pose = poses
+        in_tilt = np.linalg.inv(tilt_pose) @ table_pose
+        underside = _apply(in_tilt, [0.0, 0.0, bounds("positioner", "table", "table_disc")[0, 2]])
+        plate_top = bounds("positioner", "tilt", "tilt_plate")[0, 0]
+        assert underside[0] < plate_top < underside[0] + 0.01, (underside, plate_top)
