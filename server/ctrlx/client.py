@@ -184,9 +184,7 @@ class DataLayerClient:
         Only connecting and the response head are bounded by the request
         timeout; the stream itself is watched by its reader (keepalive).
         """
-        timeout = aiohttp.ClientTimeout(
-            total=None, sock_connect=self.timeout_s, sock_read=None
-        )
+        timeout = aiohttp.ClientTimeout(total=None, sock_connect=self.timeout_s, sock_read=None)
         token = await self.tokens.current()
         for attempt in (1, 2):
             self.traffic.requests += 1

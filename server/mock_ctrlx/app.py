@@ -43,9 +43,7 @@ async def require_token(request: web.Request, handler: Handler) -> web.StreamRes
     if request.path.startswith("/automation/"):
         token = _bearer(request)
         reason = (
-            "no bearer token given"
-            if token is None
-            else request.app[STATE_KEY].tokens.check(token)
+            "no bearer token given" if token is None else request.app[STATE_KEY].tokens.check(token)
         )
         if reason is not None:
             return problem(401, "Unauthorized", reason, request.path)
@@ -97,7 +95,7 @@ def _node_problem(request: web.Request, err: NodeError) -> web.Response:
 async def read_node(request: web.Request) -> web.Response:
     """GET /nodes/{path}[?type=browse|metadata]: value, children or metadata of a node."""
     state = request.app[STATE_KEY]
-    node = request.match_info["path"]  # already percent-decoded by the router
+    node = request.match_info.get("path", "")  # percent-decoded by the router; "" is the root
     kind = request.query.get("type", "read")
     try:
         if kind == "browse":
@@ -243,6 +241,7 @@ def build_app(
         router.add_get(DL_BASE + "/events", events.short_form)
         router.add_get(DL_BASE + "/events/{id}", events.open_subscription)
         router.add_delete(DL_BASE + "/events/{id}", events.delete_subscription)
+    router.add_get(DL_BASE + "/nodes/", read_node)  # the root: browse lists the top nodes
     for base in (DL_BASE + "/nodes", *DL_V1_BASES):
         router.add_get(base + "/{path:.+}", read_node)
         router.add_put(base + "/{path:.+}", write_node)

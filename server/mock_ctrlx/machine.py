@@ -72,8 +72,7 @@ def demo_groups() -> list[AxisGroup]:
         AxisGroup(
             "iiwa",
             tuple(
-                _deg(f"iiwa_a{i + 1}", 60.0, 150.0, 0.7 * lim)
-                for i, lim in enumerate(iiwa_limits)
+                _deg(f"iiwa_a{i + 1}", 60.0, 150.0, 0.7 * lim) for i, lim in enumerate(iiwa_limits)
             ),
             (
                 (0.0, 20.0, 0.0, -60.0, 0.0, 45.0, 0.0),

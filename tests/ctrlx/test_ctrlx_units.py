@@ -1,0 +1,160 @@
+"""Pieces of the client without sockets: SSE parsing, FILETIME, paths, values, tokens, Problems."""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from urllib.parse import unquote
+
+import jwt
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from server.ctrlx import (
+    AuthError,
+    BadValue,
+    Credentials,
+    NodeNotFound,
+    SseParser,
+    Token,
+    encode_node_path,
+    filetime_from_unix,
+    unix_from_filetime,
+)
+from server.ctrlx.events import Keepalive, Update, decode_event
+from server.ctrlx.problem import ProblemError, problem_for_result, problem_for_status
+from server.ctrlx.values import number_from_data, numbers_from_data, unit_from_data
+
+STREAM = (
+    b": comment\r\n"
+    b'event: update\r\nid: 1\r\ndata: {"node":"a","timestamp":1,"value":1.5}\r\n\r\n'
+    b"event: keepalive\nid: 2\ndata: {}\n\n"
+    b"event: update\rdata: line one\rdata: line two\r\r"
+    b"data: no event name\n\n"
+)
+
+
+def test_sse_parser_reads_all_line_endings_comments_and_multiline_data() -> None:
+    events = SseParser().feed(STREAM)
+    assert [(e.event, e.id) for e in events] == [
+        ("update", "1"), ("keepalive", "2"), ("update", "2"), ("message", "2"),
+    ]  # fmt: skip
+    assert events[2].data == "line one\nline two"
+
+
+@given(st.lists(st.integers(min_value=0, max_value=len(STREAM)), max_size=8))
+def test_sse_parser_gives_the_same_events_however_the_bytes_are_split(cuts: list[int]) -> None:
+    parser, events, last = SseParser(), [], 0
+    for cut in [*sorted(cuts), len(STREAM)]:
+        events += parser.feed(STREAM[last:cut])
+        last = cut
+    assert events == SseParser().feed(STREAM)
+    assert not parser.pending
+
+
+def test_filetime_epochs() -> None:
+    assert unix_from_filetime(116_444_736_000_000_000) == 0.0
+    # The data-layer description's own event example, 132778212343571969, is in 2021.
+    when = dt.datetime.fromtimestamp(unix_from_filetime(132778212343571969), dt.UTC)
+    assert (when.year, when.month) == (2021, 10)
+
+
+@given(st.floats(min_value=0.0, max_value=4e9, allow_nan=False))
+def test_filetime_round_trip_to_100_ns(t: float) -> None:
+    assert math.isclose(unix_from_filetime(filetime_from_unix(t)), t, abs_tol=1e-7)
+
+
+@given(st.lists(st.text(min_size=1).filter(lambda s: "/" not in s), min_size=1, max_size=5))
+def test_node_paths_encode_each_segment_and_round_trip(segments: list[str]) -> None:
+    encoded = encode_node_path("/".join(segments))
+    assert encoded.count("/") == len(segments) - 1
+    assert [unquote(s) for s in encoded.split("/")] == segments
+    assert not set(" ^%#?") & set(encoded.replace("%", "", encoded.count("%")))
+
+
+def test_special_characters_are_percent_encoded() -> None:
+    assert encode_node_path("plc/a^b c%d") == "plc/a%5Eb%20c%25d"
+
+
+@pytest.mark.parametrize("kind", ["double", "float", "int16", "uint64", "float32"])
+def test_scalars(kind: str) -> None:
+    assert number_from_data("n", {"type": kind, "value": 3}) == 3.0
+
+
+@pytest.mark.parametrize("kind", ["arfloat64", "arfloat32", "ardouble", "arfloat"])
+def test_arrays_under_current_and_older_names(kind: str) -> None:
+    assert numbers_from_data("n", {"type": kind, "value": [1, 2.5]}) == [1.0, 2.5]
+    with pytest.raises(BadValue, match="array"):
+        number_from_data("n", {"type": kind, "value": [1.0]})
+
+
+def test_actual_object_gives_position_and_unit() -> None:
+    body = {"type": "object", "value": {"actualPos": 12.5, "actualPosUnit": "mm"}}
+    assert number_from_data("x", body) == 12.5
+    assert unit_from_data(body) == "mm"
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        {"type": "bool8", "value": True},
+        {"type": "double", "value": "1.0"},
+        {"type": "double", "value": math.nan},
+        {"type": "string", "value": "x"},
+        {"value": None},
+        [1.0],
+    ],
+)
+def test_unusable_values_name_the_node(body: object) -> None:
+    with pytest.raises(BadValue, match="my/node"):
+        number_from_data("my/node", body)
+
+
+def token(**claims: float) -> str:
+    return jwt.encode(dict(claims), "k" * 32, algorithm="HS256")
+
+
+def test_tokens_are_renewed_a_share_of_their_life_early_at_most_a_minute() -> None:
+    short = Token.from_jwt(token(iat=100.0, exp=102.0), now=0.0)
+    assert short.renew_at() == pytest.approx(101.6)
+    long = Token.from_jwt(token(iat=0.0, exp=3600.0), now=0.0)
+    assert long.renew_at() == pytest.approx(3540.0)
+    assert Token.from_jwt("opaque", now=5.0).renew_at() is None
+    assert "eyJ" not in repr(short)
+
+
+def test_secrets_stay_out_of_reprs() -> None:
+    assert "hunter2" not in repr(Credentials("me", "hunter2"))
+    assert "hunter2" not in str(Credentials("me", "hunter2"))
+
+
+def test_problem_fields_and_subclasses() -> None:
+    body = {"type": "about:blank", "title": "Unauthorized", "status": 401,
+            "detail": "wrong", "instance": "/x"}  # fmt: skip
+    err = problem_for_status(401, body, "fallback")
+    assert isinstance(err, AuthError)
+    assert (err.status, err.title, err.detail, err.instance) == (401, "Unauthorized", "wrong", "/x")
+    assert str(err) == "401 Unauthorized: wrong (/x)"
+    assert isinstance(problem_for_result("a", "DL_INVALID_ADDRESS", None), NodeNotFound)
+    assert problem_for_status(502, "<html>", "bad gateway").title == "bad gateway"
+
+
+def test_events_decode_to_updates_keepalives_and_node_errors() -> None:
+    parser = SseParser()
+    stamp = filetime_from_unix(1.7e9)
+    events = parser.feed(
+        b'event: update\ndata: {"node":"a","timestamp":%d,"type":"double","value":2}\n\n'
+        b'event: keepalive\ndata: {"timestamp":%d}\n\n'
+        b'event: error\ndata: {"title":"DL_INVALID_ADDRESS","status":404,'
+        b'"instance":"/automation/api/v2/nodes/b%%5Ec"}\n\n'
+        b'event: error\ndata: {"title":"broken","status":500}\n\n' % (stamp, stamp)
+    )
+    prefix = "/automation/api/v2/nodes/"
+    assert decode_event(events[0], prefix) == Update("a", 1.7e9, 2.0)
+    assert decode_event(events[1], prefix) == Keepalive(1.7e9)
+    error = decode_event(events[2], prefix)
+    assert isinstance(error, Update) and error.node == "b^c"
+    assert isinstance(error.value, NodeNotFound)
+    with pytest.raises(ProblemError, match="broken"):
+        decode_event(events[3], prefix)
