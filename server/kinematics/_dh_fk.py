@@ -1,0 +1,235 @@
+"""Forward-kinematics kernels behind ``DHChain``: one per batch regime, same results.
+
+All three return every frame of the chain (base first, flange last) as 4x4
+poses in the base frame, metres and radians. Each joint's transform is split
+into the moves of its convention, applied to the frame's columns:
+
+* standard (Denavit-Hartenberg): ``Rz(theta) Tz(d) Tx(a) Rx(alpha)``;
+* modified (Craig): ``Rx(alpha) Tx(a) Rz(theta) Tz(d)``, with ``a`` and
+  ``alpha`` of row ``i`` being Craig's ``a_{i-1}``, ``alpha_{i-1}``.
+
+``one_config`` runs on Python floats (a NumPy call costs about a microsecond,
+more than a whole joint here); ``small_batch`` multiplies stacked 4x4 matrices;
+``large_batch`` works on structure-of-arrays columns, contiguous over samples,
+and transposes once at the end.
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+
+_BOTTOM_ROW = (0.0, 0.0, 0.0, 1.0)
+_IDENTITY = np.eye(4)
+BLOCK = 4096  # samples per pass of ``large_batch``; its buffers then fit in L2/L3
+
+
+def snap_unit(value: float) -> float:
+    """``value`` with rounding noise removed around 0 and +-1 (cos(pi/2) is 6e-17, not 0)."""
+    for exact in (0.0, 1.0, -1.0):
+        if abs(value - exact) < 1e-15:
+            return exact
+    return value
+
+
+@dataclass(frozen=True)
+class ChainConstants:
+    """Per-joint constants of a chain, precomputed once (lengths in m, angles in rad)."""
+
+    modified: bool
+    d: tuple[float, ...]
+    a: tuple[float, ...]
+    theta_offset: tuple[float, ...]
+    theta_offset_array: Array
+    cos_alpha: tuple[float, ...]
+    sin_alpha: tuple[float, ...]
+    # Joint transform as c * cos_part + s * sin_part + fixed_part, shape (n, 4, 4).
+    cos_part: Array
+    sin_part: Array
+    fixed_part: Array
+
+
+def chain_constants(
+    d: Array, a: Array, alpha: Array, theta_offset: Array, modified: bool
+) -> ChainConstants:
+    """Precompute what every kernel needs from the DH table."""
+    ca = tuple(snap_unit(math.cos(x)) for x in alpha.tolist())
+    sa = tuple(snap_unit(math.sin(x)) for x in alpha.tolist())
+    n = len(ca)
+    rz_cos = np.diag([1.0, 1.0, 0.0, 0.0])
+    rz_sin = np.zeros((4, 4))
+    rz_sin[0, 1], rz_sin[1, 0] = -1.0, 1.0
+    rz_fixed = np.diag([0.0, 0.0, 1.0, 1.0])
+    parts = np.zeros((3, n, 4, 4))
+    for i in range(n):
+        tz = np.eye(4)
+        tz[2, 3] = d[i]
+        x_move = np.array(
+            [[1.0, 0.0, 0.0, a[i]], [0.0, ca[i], -sa[i], 0.0],
+             [0.0, sa[i], ca[i], 0.0], [0.0, 0.0, 0.0, 1.0]]
+        )
+        before, after = (x_move, tz) if modified else (np.eye(4), tz @ x_move)
+        for k, rz in enumerate((rz_cos, rz_sin, rz_fixed)):
+            parts[k, i] = before @ rz @ after
+    return ChainConstants(
+        modified=modified,
+        d=tuple(d.tolist()),
+        a=tuple(a.tolist()),
+        theta_offset=tuple(theta_offset.tolist()),
+        theta_offset_array=theta_offset,
+        cos_alpha=ca,
+        sin_alpha=sa,
+        cos_part=parts[0],
+        sin_part=parts[1],
+        fixed_part=parts[2],
+    )
+
+
+def one_config(k: ChainConstants, q: list[float]) -> Array:
+    """Frames ``(n + 1, 4, 4)`` of one configuration ``q`` (rad), on Python floats.
+
+    The running frame is twelve locals (rotation columns x, y, z and origin p,
+    row by row); each move updates only the columns it touches.
+    """
+    r00, r01, r02, p0 = 1.0, 0.0, 0.0, 0.0
+    r10, r11, r12, p1 = 0.0, 1.0, 0.0, 0.0
+    r20, r21, r22, p2 = 0.0, 0.0, 1.0, 0.0
+    out = [r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, *_BOTTOM_ROW]
+    cos, sin = math.cos, math.sin
+    modified = k.modified
+    for qi, off, ca, sa, ai, di in zip(
+        q, k.theta_offset, k.cos_alpha, k.sin_alpha, k.a, k.d, strict=True
+    ):
+        if modified:  # Rx(alpha) then Tx(a), before the joint turns.
+            r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
+            r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
+            r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
+            if ai:
+                p0 += ai * r00
+                p1 += ai * r10
+                p2 += ai * r20
+        c, s = cos(qi + off), sin(qi + off)
+        r00, r01 = c * r00 + s * r01, c * r01 - s * r00
+        r10, r11 = c * r10 + s * r11, c * r11 - s * r10
+        r20, r21 = c * r20 + s * r21, c * r21 - s * r20
+        if di:
+            p0 += di * r02
+            p1 += di * r12
+            p2 += di * r22
+        if not modified:  # Tx(a) then Rx(alpha), after the joint turns.
+            if ai:
+                p0 += ai * r00
+                p1 += ai * r10
+                p2 += ai * r20
+            r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
+            r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
+            r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
+        out += (r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2)
+        out += _BOTTOM_ROW
+    return np.frombuffer(array("d", out)).reshape(-1, 4, 4)
+
+
+def small_batch(k: ChainConstants, q: Array) -> Array:
+    """Frames ``(m, n + 1, 4, 4)`` of configurations ``q`` ``(m, n)`` by stacked 4x4 products."""
+    theta = q + k.theta_offset_array
+    c, s = np.cos(theta)[..., None, None], np.sin(theta)[..., None, None]
+    joint = c * k.cos_part + s * k.sin_part + k.fixed_part
+    m, n = q.shape
+    out = np.empty((m, n + 1, 4, 4))
+    out[:, 0] = _IDENTITY
+    out[:, 1] = joint[:, 0]
+    for i in range(1, n):
+        np.matmul(out[:, i], joint[:, i], out=out[:, i + 1])
+    return out
+
+
+def _turn(
+    u: Array, v: Array, c: Array | float, s: Array | float, out_u: Array, out_v: Array,
+    tmp: Array,
+) -> None:
+    """Columns turned in their plane: ``out_u = c u + s v``, ``out_v = c v - s u``."""
+    if isinstance(c, float) and c == 0.0:  # a quarter turn: swap with a sign
+        np.multiply(v, s, out=out_u)
+        np.multiply(u, -s, out=out_v)
+        return
+    if isinstance(c, float) and c == 1.0:  # no turn
+        out_u[...] = u
+        out_v[...] = v
+        return
+    np.multiply(u, c, out=out_u)
+    np.multiply(v, s, out=tmp)
+    out_u += tmp
+    np.multiply(v, c, out=out_v)
+    np.multiply(u, s, out=tmp)
+    out_v -= tmp
+
+
+def _shift(p: Array, length: float, axis: Array, out: Array, tmp: Array) -> None:
+    """Origin moved along a column: ``out = p + length * axis`` (``out`` may be ``p``)."""
+    if length == 0.0:
+        if out is not p:
+            out[...] = p
+        return
+    np.multiply(axis, length, out=tmp)
+    np.add(p, tmp, out=out)
+
+
+def large_batch(k: ChainConstants, q: Array, flange_only: bool = False) -> Array:
+    """Frames ``(m, n + 1, 4, 4)`` of configurations ``q`` ``(m, n)``, for large ``m``.
+
+    With ``flange_only`` the result is the flange alone, ``(m, 4, 4)``.
+
+    Frames are built in ``soa[frame, 4 * row + col, sample]`` so that each
+    column update is a few long contiguous passes, then transposed into the
+    result. Samples go through in blocks of ``BLOCK`` so the work buffer stays
+    in cache between the updates and the transpose. Cos and sin come from the
+    half-angle tangent: NumPy vectorises ``tan`` but not ``sin``/``cos``.
+    """
+    m, n = q.shape
+    half = q.T + k.theta_offset_array[:, None]
+    half *= 0.5
+    t = np.tan(half, out=half)
+    t2 = t * t
+    inv = 1.0 / (1.0 + t2)
+    cos_q = (1.0 - t2) * inv
+    sin_q = np.multiply(t, inv, out=t2)
+    sin_q *= 2.0
+
+    block = min(m, BLOCK)
+    soa = np.empty((n + 1, 16, block))
+    soa[0] = _IDENTITY.reshape(16, 1)  # the kernel never writes frame 0 or the bottom rows
+    soa[1:, 12:15] = 0.0
+    soa[1:, 15] = 1.0
+    y_turned, tmp = np.empty((2, 3, block))
+    frames = 1 if flange_only else n + 1
+    out = np.empty((m, frames * 16))
+    for start in range(0, m, block):
+        stop = min(start + block, m)
+        w = stop - start
+        for i in range(n):
+            x, y, z, p = (soa[i, col:12:4, :w] for col in range(4))
+            xn, yn, zn, pn = (soa[i + 1, col:12:4, :w] for col in range(4))
+            c, s = cos_q[i, start:stop], sin_q[i, start:stop]
+            ca, sa = k.cos_alpha[i], k.sin_alpha[i]
+            yt, tm = y_turned[:, :w], tmp[:, :w]
+            if k.modified:
+                _turn(y, z, ca, sa, yt, zn, tm)
+                _shift(p, k.a[i], x, pn, tm)
+                _turn(x, yt, c, s, xn, yn, tm)
+                _shift(pn, k.d[i], zn, pn, tm)
+            else:
+                _turn(x, y, c, s, xn, yt, tm)
+                _shift(p, k.d[i], z, pn, tm)
+                _shift(pn, k.a[i], xn, pn, tm)
+                _turn(yt, z, ca, sa, yn, zn, tm)
+        done = soa[n + 1 - frames :].reshape(frames * 16, block)[:, :w]
+        np.copyto(out[start:stop], done.T)
+    if flange_only:
+        return out.reshape(m, 4, 4)
+    return out.reshape(m, n + 1, 4, 4)

@@ -1,0 +1,131 @@
+"""Numerical inverse kinematics for any revolute DH chain: damped least squares.
+
+Levenberg-Marquardt with Sugihara's damping (``lambda = E + w``, ``E`` half
+the squared pose error), joint limits enforced by clipping after each step.
+Every target is tried from several starts at once, rows of one batch: the
+caller's reference configuration first, then random configurations drawn
+within the limits. Every ``RESTART_EVERY`` iterations, a start still far from
+its target (stuck at a local minimum or a limit) is replaced by a fresh random
+one. The generator is seeded, so a call's result depends only on its arguments.
+
+Pose error is taken in the base frame: position in metres, rotation as the
+rotation vector (rad) taking the current flange orientation to the target's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+STARTS = 8
+RESTART_EVERY = 25
+MAX_ITERATIONS = 150
+TOLERANCE = 1e-10  # on the pose error's norm, position (m) and rotation (rad) together
+# Flat indices into a 3x3: rot[_SKEW_A] - rot[_SKEW_B] is 2 sin(angle) axis.
+_SKEW_A, _SKEW_B = [7, 2, 3], [5, 6, 1]
+# (z r^T) flattened, times this, is z x r.
+_LEVI_CIVITA = np.zeros((9, 3))
+_LEVI_CIVITA[[5, 6, 1], [0, 1, 2]] = 1.0
+_LEVI_CIVITA[[7, 2, 3], [0, 1, 2]] = -1.0
+DAMPING_FLOOR = 1e-6  # Sugihara's w (m^2, rad^2): keeps steps finite at singularities
+DAMPING_GAIN = 0.1
+RESTART_ABOVE = 1e-3  # a start whose error is still above this at a restart check is redrawn
+
+
+def pose_error(target: Array, pose: Array) -> tuple[Array, Array]:
+    """Pose error ``(..., 6)`` in the base frame, and ``(..., 9)`` of ``R_target R_pose^T``.
+
+    The first three entries are target minus pose position (m); the last three
+    are ``sin(angle) * axis`` of the rotation ``R_target R_pose^T`` (rad near
+    zero). That also vanishes at a half turn, so a zero error counts only where
+    the rotation's trace is above 1 (angle below 90 deg): see ``_small_turn``.
+    """
+    product = target[..., :3, :3] @ pose[..., :3, :3].swapaxes(-1, -2)
+    rot = product.reshape(product.shape[:-2] + (9,))
+    turn = rot[..., _SKEW_A] - rot[..., _SKEW_B]
+    turn *= 0.5
+    return np.concatenate([target[..., :3, 3] - pose[..., :3, 3], turn], axis=-1), rot
+
+
+def _small_turn(rot: Array) -> BoolArray:
+    """True where the flat rotations ``(..., 9)`` turn by less than 90 deg."""
+    return np.asarray(rot[..., 0] + rot[..., 4] + rot[..., 8] > 1.0)
+
+
+def _jacobian_t(frames: Array, modified: bool) -> Array:
+    """Transposed geometric Jacobians ``(..., n, 6)`` in the base frame from frames
+    ``(..., n + 1, 4, 4)``.
+
+    Row ``i`` is joint ``i``'s twist: ``z_i x (p_flange - o_i)`` then ``z_i``.
+    In the standard convention joint ``i`` turns about z of frame ``i - 1``; in
+    Craig's, about z of frame ``i`` itself.
+    """
+    axes = frames[..., 1:, :, :] if modified else frames[..., :-1, :, :]
+    z = axes[..., :3, 2]
+    r = frames[..., -1:, :3, 3] - axes[..., :3, 3]
+    # The cross product as one product with the Levi-Civita symbol.
+    linear = (z[..., :, None] * r[..., None, :]).reshape(z.shape[:-1] + (9,)) @ _LEVI_CIVITA
+    return np.concatenate([linear, z], axis=-1)
+
+
+def solve(
+    frames_of: Callable[[Array], Array],
+    modified: bool,
+    limits: Array,
+    target: Array,
+    q_ref: Array | None,
+    seed: int = 0,
+) -> tuple[Array, BoolArray]:
+    """Joints ``(b, n)`` (rad) putting the flange on ``target`` ``(b, 4, 4)``.
+
+    ``frames_of`` maps configurations ``(m, n)`` to frames ``(m, n + 1, 4, 4)``.
+    Among a target's converged starts the one nearest ``q_ref`` (sum of
+    absolute differences) wins. Where nothing converged, ``ok`` is False and
+    the joints are ``q_ref`` (or the middle of the limits).
+    """
+    b, n = target.shape[0], limits.shape[0]
+    lo, span = limits[:, 0], limits[:, 1] - limits[:, 0]
+    rng = np.random.default_rng(seed)
+    ref = np.broadcast_to(lo + 0.5 * span, (b, n)) if q_ref is None else q_ref
+    result = np.clip(ref, lo, limits[:, 1])
+    ok = np.zeros(b, dtype=bool)
+
+    # Rows are (target, start): every array below has shape (active targets, STARTS, ...).
+    active = np.arange(b)
+    q = lo + span * rng.random((b, STARTS, n))
+    if q_ref is not None:
+        q[:, 0] = result
+    goal = target[:, None]
+    eye = np.eye(n)
+    for iteration in range(MAX_ITERATIONS):
+        frames = frames_of(q.reshape(-1, n)).reshape(q.shape[:2] + (n + 1, 4, 4))
+        err, rot = pose_error(goal, frames[:, :, -1])
+        square = np.einsum("...i,...i->...", err, err)
+        converged = square < TOLERANCE**2
+        if converged.any() and (converged := converged & _small_turn(rot)).any():
+            done = converged.any(axis=-1)
+            cost = np.where(converged, np.abs(q - ref[active, None]).sum(axis=-1), np.inf)[done]
+            result[active[done]] = q[done][np.arange(cost.shape[0]), np.argmin(cost, axis=-1)]
+            ok[active[done]] = True
+            keep = ~done
+            active, goal, q, err, square, frames = (
+                active[keep], goal[keep], q[keep], err[keep], square[keep], frames[keep]
+            )
+            if active.size == 0:
+                break
+        jac_t = _jacobian_t(frames, modified)
+        hessian = jac_t @ jac_t.swapaxes(-1, -2)
+        hessian += (DAMPING_GAIN * square + DAMPING_FLOOR)[..., None, None] * eye
+        q += np.linalg.solve(hessian, jac_t @ err[..., None])[..., 0]
+        np.maximum(q, lo, out=q)
+        np.minimum(q, limits[:, 1], out=q)
+        if iteration % RESTART_EVERY == RESTART_EVERY - 1:
+            # Redraw only starts stuck far away; slow converging ones keep going.
+            stuck = square > RESTART_ABOVE**2
+            q[stuck] = lo + span * rng.random((int(stuck.sum()), n))
+    return result, ok
