@@ -18,10 +18,19 @@ from .calibration import (
     calibrate_linear_axis,
     calibrate_rotary_axis,
 )
+from .dh import DHChain
+from .iiwa import IiwaSolutions, LBRiiwa, iiwa7
 from .motion import SpeedMove, TrapezoidMove, plan_movej, plan_speedj
+from .rpy import matrix_from_rpy, rpy_from_matrix
 from .type12 import Type12, circle_circle_intersection
 
 __all__ = [
+    "DHChain",
+    "IiwaSolutions",
+    "LBRiiwa",
+    "iiwa7",
+    "matrix_from_rpy",
+    "rpy_from_matrix",
     "LinearCalibration",
     "RotaryCalibration",
     "SpeedMove",
