@@ -25,6 +25,9 @@ Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 LINK_NAMES: tuple[str, ...] = ("L1", "L5", "L4", "L2")
+# The TCP pose at the base orientation, as planar_poses builds it (with rot_z(0)'s -0.0).
+_TCP_POSE = planar_poses(np.zeros(2), np.zeros(()))
+_BLOCK = 8192  # configurations per pass of ``forward``
 
 
 def circle_circle_intersection(
@@ -75,25 +78,66 @@ class Type12:
         """Link lengths (m) keyed as in the seed: L1..L5."""
         return {"L1": self.l1, "L2": self.l2, "L3": self.l3, "L4": self.l4, "L5": self.l5}
 
-    def _points(self, q: Array) -> tuple[Array, Array, Array, Array, BoolArray]:
-        """Points T, W, E and the TCP (m, base XY) for joints ``q`` (rad), seed AxesToCartesian."""
+    def _points_xy(self, q: Array) -> tuple[list[Array], BoolArray]:
+        """x and y (m, base XY) of T, W, E and the TCP for joints ``q`` (rad), seed AxesToCartesian.
+
+        The same arithmetic, in the same order, as ``circle_circle_intersection``
+        (seed's right-hand solution), on separate x and y arrays: ``forward`` is
+        a hot batch path and stacking pairs costs more than the maths.
+        Non-finite joints are computed as zero and reported in ``ok``.
+        """
         q = np.asarray(q, dtype=np.float64)
+        finite = np.ones(q.shape[:-1], dtype=bool)
+        if not np.isfinite(q).all():
+            finite = np.asarray(np.isfinite(q).all(axis=-1), dtype=bool)
+            q = np.where(finite[..., None], q, 0.0)
         ang_t = q[..., 0] + np.pi
         ang_w = q[..., 1] + 1.5 * np.pi
-        t = self.l1 * np.stack([np.cos(ang_t), np.sin(ang_t)], -1)
-        w = self.l5 * np.stack([np.cos(ang_w), np.sin(ang_w)], -1)
-        e, ok = circle_circle_intersection(t, self.l3, w, self.l4, -1)
-        ok &= np.isfinite(q).all(axis=-1)
-        tcp = t + (e - t) * (self.l2 / self.l3)
+        tx, ty = self.l1 * np.cos(ang_t), self.l1 * np.sin(ang_t)
+        wx, wy = self.l5 * np.cos(ang_w), self.l5 * np.sin(ang_w)
+        # E: circles (T, L3) and (W, L4), turned by -theta from T towards W.
+        r0, r1 = self.l3, self.l4
+        dx, dy = wx - tx, wy - ty
+        dist = np.hypot(dx, dy)
+        safe = np.where(dist > 0.0, dist, 1.0)
+        cos_t = (dist**2 + r0**2 - r1**2) / (2.0 * safe * r0)
+        ok = (dist > 0.0) & (np.abs(cos_t) <= 1.0) & finite
+        cos_t = np.clip(cos_t, -1.0, 1.0)
+        sin_t = -1.0 * np.sqrt(1.0 - cos_t**2)
+        ux, uy = dx / safe * r0, dy / safe * r0
+        ex = np.where(ok, tx + (cos_t * ux - sin_t * uy), tx)
+        ey = np.where(ok, ty + (sin_t * ux + cos_t * uy), ty)
+        scale = self.l2 / self.l3
+        tcp_x, tcp_y = tx + (ex - tx) * scale, ty + (ey - ty) * scale
+        return [tx, ty, wx, wy, ex, ey, tcp_x, tcp_y], ok
+
+    def _points(self, q: Array) -> tuple[Array, Array, Array, Array, BoolArray]:
+        """Points T, W, E and the TCP ``(..., 2)`` (m, base XY) for joints ``q`` (rad)."""
+        xy, ok = self._points_xy(q)
+        t, w, e, tcp = (np.stack(xy[i : i + 2], -1) for i in range(0, 8, 2))
         return t, w, e, tcp, ok
 
     def forward(self, q: Array) -> tuple[Array, BoolArray]:
         """TCP poses ``(..., 4, 4)`` for joints ``q`` of shape ``(..., 2)`` (rad).
 
         The TCP keeps the base orientation (the seed sets a zero rotation).
+        ``ok`` is False where the links cannot close or a joint is not finite;
+        the pose there is finite but meaningless.
         """
-        _, _, _, tcp, ok = self._points(q)
-        return planar_poses(tcp, np.zeros(tcp.shape[:-1])), ok
+        joints = np.asarray(q, dtype=np.float64)
+        flat = joints.reshape(-1, 2)
+        pose = np.empty((flat.shape[0], 4, 4))
+        pose[...] = _TCP_POSE
+        ok = np.empty(flat.shape[0], dtype=bool)
+        # Blocks keep the temporaries small and in cache; a whole-batch pass
+        # spends more time in page faults and memory traffic than in the maths.
+        for start in range(0, flat.shape[0], _BLOCK):
+            stop = start + _BLOCK
+            xy, ok[start:stop] = self._points_xy(flat[start:stop])
+            pose[start:stop, 0, 3] = xy[6]
+            pose[start:stop, 1, 3] = xy[7]
+        lead = joints.shape[:-1]
+        return pose.reshape(lead + (4, 4)), ok.reshape(lead)
 
     def link_poses(self, q: Array) -> tuple[Array, BoolArray]:
         """Poses ``(..., 4, 4, 4)`` of L1, L5, L4, L2 (``LINK_NAMES`` order) for joints ``q``."""
