@@ -38,6 +38,19 @@ def _bearer(request: web.Request) -> str | None:
 
 
 @web.middleware
+async def count_traffic(request: web.Request, handler: Handler) -> web.StreamResponse:
+    """Count ctrlX requests and response bodies (for benchmarks; streams count themselves)."""
+    if not request.path.startswith(("/automation/", "/identity-manager/")):
+        return await handler(request)
+    traffic = request.app[STATE_KEY].traffic
+    traffic.requests += 1
+    response = await handler(request)
+    if isinstance(response, web.Response) and isinstance(response.body, bytes):
+        traffic.bytes_out += len(response.body)
+    return response
+
+
+@web.middleware
 async def require_token(request: web.Request, handler: Handler) -> web.StreamResponse:
     """401 Problem for data-layer requests without a valid bearer token."""
     if request.path.startswith("/automation/"):
@@ -189,6 +202,18 @@ async def put_faults(request: web.Request) -> web.Response:
     return web.json_response(faults.as_dict())
 
 
+async def get_stats(request: web.Request) -> web.Response:
+    """GET /mock/stats: requests and body bytes served on the ctrlX paths, open streams."""
+    state = request.app[STATE_KEY]
+    return web.json_response(
+        {
+            "requests": state.traffic.requests,
+            "bytes_out": state.traffic.bytes_out,
+            "open_streams": state.open_streams,
+        }
+    )
+
+
 async def drop_streams(request: web.Request) -> web.Response:
     """POST /mock/faults/drop-streams: end every open event stream."""
     request.app[STATE_KEY].faults.drop_streams()
@@ -219,8 +244,13 @@ def build_app(
     ``subscriptions=False`` / ``bulk_reads=False`` leave those routes out, as on
     firmware without them (the client must fall back).
     """
-    app = web.Application(middlewares=[faults_middleware(lambda a: a[STATE_KEY].faults)])
-    app.middlewares.append(require_token)
+    app = web.Application(
+        middlewares=[
+            count_traffic,
+            faults_middleware(lambda a: a[STATE_KEY].faults),
+            require_token,
+        ]
+    )
     machine = machine or Machine()
     app[STATE_KEY] = MockState(
         machine=machine,
@@ -248,6 +278,7 @@ def build_app(
     router.add_get("/mock/faults", get_faults)
     router.add_put("/mock/faults", put_faults)
     router.add_post("/mock/faults/drop-streams", drop_streams)
+    router.add_get("/mock/stats", get_stats)
     router.add_post("/mock/tokens/revoke-all", revoke_all)
     app.on_shutdown.append(_stop_streams)
     return app

@@ -171,6 +171,7 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
                 if not chunk and now - last_write >= keepalive_s:
                     chunk = publisher.keepalive()
                 if chunk:
+                    state.traffic.bytes_out += len(chunk)
                     await response.write(chunk)
                     last_write = now
             next_tick += publish_s

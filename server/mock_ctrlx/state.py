@@ -25,6 +25,14 @@ class SubscriptionSpec:
 
 
 @dataclass
+class Traffic:
+    """What the ctrlX paths served: requests and response body bytes (event streams included)."""
+
+    requests: int = 0
+    bytes_out: int = 0
+
+
+@dataclass
 class MockState:
     """Everything the mock handlers share; tests reach it as ``app[STATE_KEY]``."""
 
@@ -35,6 +43,7 @@ class MockState:
     subscriptions: dict[str, SubscriptionSpec] = field(default_factory=dict)
     changes_only: bool = False
     """Publish a node only when its value changed (the spec's wording); default: every cycle."""
+    traffic: Traffic = field(default_factory=Traffic)
     open_streams: int = 0
     closing: bool = False
     """Set on shutdown so open streams end at once."""

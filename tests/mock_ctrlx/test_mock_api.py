@@ -88,6 +88,9 @@ async def test_admin_endpoint_switches_faults() -> None:
         assert await token_of(http, mock)
         async with http.post(f"{mock.url}/mock/tokens/revoke-all") as resp:
             assert resp.status == 204
+        async with http.get(f"{mock.url}/mock/stats") as resp:
+            stats = await resp.json()
+        assert stats["requests"] == 2 and stats["bytes_out"] > 100  # the logins
 
 
 async def test_tls_certificate_verifies_with_its_ca_file(tmp_path: Path) -> None:
