@@ -4,9 +4,10 @@ Levenberg-Marquardt with Sugihara's damping (``lambda = E + w``, ``E`` half
 the squared pose error), joint limits enforced by clipping after each step.
 Every target is tried from several starts at once, rows of one batch: the
 caller's reference configuration first, then random configurations drawn
-within the limits. Every ``RESTART_EVERY`` iterations, a start still far from
-its target (stuck at a local minimum or a limit) is replaced by a fresh random
-one. The generator is seeded, so a call's result depends only on its arguments.
+within the limits. Every ``RESTART_EVERY`` iterations, a start that is still
+far from its target, or has not at least quartered its squared error since the
+last check (stuck at a local minimum or a limit), is replaced by a fresh
+random one. The generator is seeded, so a call's result depends only on its arguments.
 
 Pose error is taken in the base frame: position in metres, rotation as the
 rotation vector (rad) taking the current flange orientation to the target's.
@@ -23,8 +24,8 @@ Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
 STARTS = 8
-RESTART_EVERY = 25
-MAX_ITERATIONS = 150
+RESTART_EVERY = 15
+MAX_ITERATIONS = 300
 TOLERANCE = 1e-10  # on the pose error's norm, position (m) and rotation (rad) together
 # Flat indices into a 3x3: rot[_SKEW_A] - rot[_SKEW_B] is 2 sin(angle) axis.
 _SKEW_A, _SKEW_B = [7, 2, 3], [5, 6, 1]
@@ -32,9 +33,12 @@ _SKEW_A, _SKEW_B = [7, 2, 3], [5, 6, 1]
 _LEVI_CIVITA = np.zeros((9, 3))
 _LEVI_CIVITA[[5, 6, 1], [0, 1, 2]] = 1.0
 _LEVI_CIVITA[[7, 2, 3], [0, 1, 2]] = -1.0
-DAMPING_FLOOR = 1e-6  # Sugihara's w (m^2, rad^2): keeps steps finite at singularities
+# Sugihara's w (m^2, rad^2): keeps the step defined at singular configurations, yet
+# small enough that nearly singular directions (sigma ~ 1e-6) still converge.
+DAMPING_FLOOR = 1e-12
 DAMPING_GAIN = 0.1
 RESTART_ABOVE = 1e-3  # a start whose error is still above this at a restart check is redrawn
+RESTART_PROGRESS = 0.25  # ... and so is one whose squared error shrank by less than this factor
 
 
 def pose_error(target: Array, pose: Array) -> tuple[Array, Array]:
@@ -101,6 +105,7 @@ def solve(
     if q_ref is not None:
         q[:, 0] = result
     goal = target[:, None]
+    checked = np.full((b, STARTS), np.inf)  # squared error at the last restart check
     eye = np.eye(n)
     for iteration in range(MAX_ITERATIONS):
         frames = frames_of(q.reshape(-1, n)).reshape(q.shape[:2] + (n + 1, 4, 4))
@@ -113,8 +118,9 @@ def solve(
             result[active[done]] = q[done][np.arange(cost.shape[0]), np.argmin(cost, axis=-1)]
             ok[active[done]] = True
             keep = ~done
-            active, goal, q, err, square, frames = (
-                active[keep], goal[keep], q[keep], err[keep], square[keep], frames[keep]
+            active, goal, q, err, square, frames, checked = (
+                active[keep], goal[keep], q[keep], err[keep], square[keep], frames[keep],
+                checked[keep],
             )
             if active.size == 0:
                 break
@@ -125,7 +131,8 @@ def solve(
         np.maximum(q, lo, out=q)
         np.minimum(q, limits[:, 1], out=q)
         if iteration % RESTART_EVERY == RESTART_EVERY - 1:
-            # Redraw only starts stuck far away; slow converging ones keep going.
-            stuck = square > RESTART_ABOVE**2
+            # Redraw stuck starts; ones converging, even slowly, keep going.
+            stuck = (square > RESTART_ABOVE**2) | (square > RESTART_PROGRESS * checked)
             q[stuck] = lo + span * rng.random((int(stuck.sum()), n))
+            checked = np.where(stuck, np.inf, square)
     return result, ok
