@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from ..kinematics import WorldModel
+from ..kinematics import WorldModel, serial_rotary_inverse
 from .robot import Array, BoolArray
 
 
@@ -28,6 +28,10 @@ class AxisGroupKinematics:
         """Pose ``(..., 4, 4)`` of the last axis frame."""
         poses, ok = self.link_poses(q)
         return poses[..., -1, :, :], ok
+
+    def inverse(self, pose: Array, q_ref: Array | None = None) -> tuple[Array, BoolArray]:
+        """Positions (axis-index order) putting the last axis frame on ``pose``, near ``q_ref``."""
+        return serial_rotary_inverse(self._world, self._group, pose, q_ref)
 
     def params(self) -> dict[str, Any]:
         """The group as ``WorldModel.params`` describes it."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..kinematics import Type12
+from ..kinematics import Type12, iiwa7
 from .axis_group import tilt_rotate_positioner
 from .robot import Joint, Robot
 
@@ -28,6 +28,18 @@ def kin12() -> Robot:
     )
 
 
+def iiwa() -> Robot:
+    """The KUKA LBR iiwa 7 R800 (standard DH), axes ``iiwa_a1`` ... ``iiwa_a7`` in degrees."""
+    return Robot(
+        name="iiwa7",
+        family="dh",
+        kinematics=iiwa7(),
+        joints=tuple(Joint(f"a{i}", axis_node(f"iiwa_a{i}"), "deg") for i in range(1, 8)),
+        link_names=tuple(f"link{i}" for i in range(8)),
+        tcp_is_last_link=True,
+    )
+
+
 def positioner() -> Robot:
     """A tilt/rotate table built as a MotionPlus axis group; ``pos_tilt``/``pos_turn`` in deg."""
     return Robot(
@@ -46,4 +58,4 @@ def positioner() -> Robot:
 
 def default_cell() -> list[Robot]:
     """Every robot of the demo cell."""
-    return [kin12(), positioner()]
+    return [kin12(), iiwa(), positioner()]

@@ -12,6 +12,7 @@ from ._rotations import (
     quat_xyzw_from_matrix,
 )
 from .axis_group import WorldModel
+from .axis_group_ik import serial_rotary_inverse
 from .calibration import (
     LinearCalibration,
     RotaryCalibration,
@@ -48,4 +49,5 @@ __all__ = [
     "matrix_from_quat_xyzw",
     "pose7_from_matrix",
     "quat_xyzw_from_matrix",
+    "serial_rotary_inverse",
 ]

@@ -1,0 +1,101 @@
+"""Seed 004's Transformation service: forward and inverse kinematics of a cell robot, in SI units.
+
+The web layer calls these; they hold the per-family choices (which inverse,
+which solutions to list) so that routes stay free of kinematics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kinematics import (
+    LBRiiwa,
+    Type12,
+    matrix_from_pose7,
+    pose7_from_matrix,
+    rpy_from_matrix,
+)
+from .axis_group import AxisGroupKinematics
+from .robot import Array, BoolArray, Robot
+
+
+class TransformInputError(ValueError):
+    """The request does not fit the robot (wrong number of joints, not finite)."""
+
+
+@dataclass(frozen=True)
+class ForwardResult:
+    """TCP poses ``[x, y, z, qx, qy, qz, qw]`` (m), roll-pitch-yaw (rad, seed 004) and ``ok``."""
+
+    tcp: list[list[float]]
+    rpy: list[list[float]]
+    ok: list[bool]
+
+
+@dataclass(frozen=True)
+class InverseResult:
+    """Joint solutions (SI), whether each is within limits, the chosen one, and ``ok``."""
+
+    solutions: list[list[float]]
+    within_limits: list[bool]
+    best: list[float] | None
+    ok: bool
+    error: str | None
+
+
+def _joint_rows(robot: Robot, joints: list[list[float]]) -> Array:
+    q = np.asarray(joints, dtype=np.float64)
+    n = len(robot.joints)
+    if q.ndim != 2 or q.shape[1] != n:
+        raise TransformInputError(f"{robot.name} has {n} joints; each row must hold {n} values")
+    if not np.isfinite(q).all():
+        raise TransformInputError("joint values must be finite numbers")
+    return q
+
+
+def forward(robot: Robot, joints: list[list[float]]) -> ForwardResult:
+    """TCP pose of each joint row (rad or m, hello order)."""
+    q = _joint_rows(robot, joints)
+    _, tcp, ok = robot.poses(q)
+    rpy = rpy_from_matrix(tcp[..., :3, :3])
+    good = np.asarray(ok, dtype=bool)
+    return ForwardResult(
+        tcp=[p if g else [] for p, g in zip(pose7_from_matrix(tcp).tolist(), good, strict=True)],
+        rpy=[r if g else [] for r, g in zip(rpy.tolist(), good, strict=True)],
+        ok=good.tolist(),
+    )
+
+
+def inverse(
+    robot: Robot, tcp: list[float], joints_ref: list[float] | None, all_solutions: bool
+) -> InverseResult:
+    """Joints putting the TCP on ``tcp`` ``[x, y, z, qx, qy, qz, qw]``, nearest ``joints_ref``."""
+    pose7 = np.asarray(tcp, dtype=np.float64)
+    if pose7.shape != (7,) or not np.isfinite(pose7).all():
+        raise TransformInputError("tcp must be 7 finite numbers [x, y, z, qx, qy, qz, qw]")
+    if np.linalg.norm(pose7[3:]) < 1e-9:
+        raise TransformInputError("tcp quaternion must not be zero")
+    n = len(robot.joints)
+    ref = np.zeros(n) if joints_ref is None else _joint_rows(robot, [joints_ref])[0]
+    pose = matrix_from_pose7(pose7)
+    kin = robot.kinematics
+    solutions: Array
+    within: BoolArray
+    if isinstance(kin, LBRiiwa):
+        found = kin.inverse_all(pose, ref[2])
+        solutions, within = found.q[found.reached], found.within_limits[found.reached]
+        best, ok = kin.inverse(pose, ref)
+    elif isinstance(kin, Type12 | AxisGroupKinematics):
+        best, ok = kin.inverse(pose) if isinstance(kin, Type12) else kin.inverse(pose, ref)
+        found_one = bool(ok)
+        solutions, within = best[None][: int(found_one)], np.ones(int(found_one), dtype=bool)
+    else:
+        raise TransformInputError(f"{robot.name}: no inverse for family {robot.family}")
+    if not bool(ok):
+        error = "reached only outside the joint limits" if len(solutions) else "out of reach"
+        return InverseResult(solutions.tolist(), within.tolist(), None, False, error)
+    if not all_solutions:
+        solutions, within = best[None], np.ones(1, dtype=bool)
+    return InverseResult(solutions.tolist(), within.tolist(), best.tolist(), True, None)

@@ -1,0 +1,59 @@
+"""REST routes of the Transformation service: ``/api/robots/{name}/fk`` and ``/ik`` (SI units)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import Annotated, Any
+
+from fastapi import APIRouter, HTTPException, Request
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..cell import Robot, transformation
+from .routes import runtime_of
+
+router = APIRouter(prefix="/api/robots")
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class ForwardRequest(BaseModel):
+    """Joint rows, each in hello order (rad or m)."""
+
+    model_config = ConfigDict(extra="forbid")
+    joints: list[list[Finite]] = Field(min_length=1, max_length=100_000)
+
+
+class InverseRequest(BaseModel):
+    """A TCP pose [x, y, z, qx, qy, qz, qw] (m), a reference posture, and whether to list all."""
+
+    model_config = ConfigDict(extra="forbid")
+    tcp: list[Finite]
+    joints_ref: list[Finite] | None = None
+    all: bool = False
+
+
+def _robot(request: Request, name: str) -> Robot:
+    robot = runtime_of(request).robot(name)
+    if robot is None:
+        raise HTTPException(status_code=404, detail=f"no robot named {name!r} in the cell")
+    return robot
+
+
+def _run(call: Any, *args: Any) -> dict[str, Any]:
+    try:
+        result: dict[str, Any] = asdict(call(*args))
+    except transformation.TransformInputError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from exc
+    return result
+
+
+@router.post("/{name}/fk")
+async def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
+    """TCP pose and roll-pitch-yaw for each joint row."""
+    return _run(transformation.forward, _robot(request, name), body.joints)
+
+
+@router.post("/{name}/ik")
+async def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
+    """Joint solutions for a TCP pose; ``best`` is nearest ``joints_ref``."""
+    return _run(transformation.inverse, _robot(request, name), body.tcp, body.joints_ref, body.all)

@@ -1,0 +1,124 @@
+"""Seed 004's Transformation service over REST: round trips for every robot, and bad input."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import aiohttp
+import numpy as np
+
+from server.cell import default_cell
+from server.config import Settings
+from server.kinematics import matrix_from_pose7, matrix_from_rpy
+from tests.conftest import running_mock, running_server
+
+
+def sample_joints(name: str, rng: np.random.Generator, count: int) -> np.ndarray:
+    """Random postures each robot of the default cell can take."""
+    if name == "kin12":
+        return rng.uniform(-0.7, 0.7, (count, 2))
+    if name == "iiwa7":
+        limits = np.radians([170, 120, 170, 120, 170, 120, 175])
+        return rng.uniform(-0.8 * limits, 0.8 * limits, (count, 7))
+    return rng.uniform([-1.0, -3.0], [1.0, 3.0], (count, 2))
+
+
+async def post(http: aiohttp.ClientSession, url: str, body: Any) -> tuple[int, Any]:
+    async with http.post(url, json=body) as resp:
+        return resp.status, await resp.json()
+
+
+async def test_ik_of_fk_returns_to_the_same_tcp_for_every_robot() -> None:
+    rng = np.random.default_rng(7)
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url)) as base,
+        aiohttp.ClientSession() as http,
+    ):
+        for robot in default_cell():
+            api = f"{base}/api/robots/{robot.name}"
+            q = sample_joints(robot.name, rng, 5)
+            status, fk = await post(http, api + "/fk", {"joints": q.tolist()})
+            assert status == 200 and all(fk["ok"]), (robot.name, fk)
+            _, expected, _ = robot.poses(q)
+            tcp = matrix_from_pose7(np.array(fk["tcp"]))
+            np.testing.assert_allclose(tcp, expected, atol=1e-12)
+            np.testing.assert_allclose(
+                matrix_from_rpy(np.array(fk["rpy"])), expected[:, :3, :3], atol=1e-12
+            )
+            for q_i, tcp_i in zip(q, fk["tcp"], strict=True):
+                body = {"tcp": tcp_i, "joints_ref": q_i.tolist(), "all": True}
+                status, ik = await post(http, api + "/ik", body)
+                assert status == 200 and ik["ok"] and ik["error"] is None, (robot.name, ik)
+                _, again, _ = robot.poses(np.array(ik["best"]))
+                pos_tol = 1e-6 if robot.family == "type12" else 1e-8
+                np.testing.assert_allclose(again[:3, 3], expected_pose(tcp_i)[:3, 3], atol=pos_tol)
+                if robot.family != "type12":  # Type 12 keeps a fixed TCP orientation
+                    np.testing.assert_allclose(again, expected_pose(tcp_i), atol=1e-8)
+                assert len(ik["solutions"]) == len(ik["within_limits"]) >= 1
+
+
+def expected_pose(tcp7: list[float]) -> np.ndarray:
+    return matrix_from_pose7(np.array(tcp7))
+
+
+async def test_iiwa_ik_lists_the_starting_configuration_among_all_eight() -> None:
+    rng = np.random.default_rng(3)
+    robot = next(r for r in default_cell() if r.name == "iiwa7")
+    q = sample_joints("iiwa7", rng, 1)[0]
+    _, tcp, _ = robot.poses(q)
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url)) as base,
+        aiohttp.ClientSession() as http,
+    ):
+        _, fk = await post(http, f"{base}/api/robots/iiwa7/fk", {"joints": [q.tolist()]})
+        body = {"tcp": fk["tcp"][0], "joints_ref": q.tolist(), "all": True}
+        status, ik = await post(http, f"{base}/api/robots/iiwa7/ik", body)
+    assert status == 200 and ik["ok"]
+    solutions = np.array(ik["solutions"])
+    assert solutions.shape[1] == 7 and 1 <= len(solutions) <= 8
+    assert np.min(np.abs(solutions - q).max(axis=1)) < 1e-8
+    np.testing.assert_allclose(ik["best"], q, atol=1e-8)
+    assert np.allclose(tcp, robot.poses(np.array(ik["best"]))[1], atol=1e-9)
+
+
+async def test_bad_requests_get_422_and_unknown_robot_404() -> None:
+    bad_fk = [
+        {"joints": [[0.1]]},  # wrong length
+        {"joints": [[0.1, "x"]]},  # not a number
+        {"joints": [[0.1, float("nan")]]},  # NaN
+        {},  # missing field
+        {"joints": []},  # nothing to do
+    ]
+    bad_ik = [
+        {"tcp": [0, 0, 0]},  # wrong length
+        {"tcp": [0, 0, 0, 0, 0, 0, 0]},  # zero quaternion
+        {"joints_ref": [0, 0]},  # missing tcp
+        {"tcp": [0, 0, 0, 0, 0, 0, 1], "joints_ref": [0]},  # wrong reference length
+    ]
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url)) as base,
+        aiohttp.ClientSession() as http,
+    ):
+        api = f"{base}/api/robots/kin12"
+        for body in bad_fk:
+            async with http.post(
+                api + "/fk", data=_json(body), headers={"content-type": "application/json"}
+            ) as resp:
+                assert resp.status == 422, body
+                assert (await resp.json())["detail"], body
+        for body in bad_ik:
+            status, answer = await post(http, api + "/ik", body)
+            assert status == 422 and answer["detail"], body
+        status, answer = await post(http, f"{base}/api/robots/nope/fk", {"joints": [[0, 0]]})
+        assert status == 404 and "nope" in answer["detail"]
+        status, answer = await post(http, api + "/ik", {"tcp": [5, 5, 0, 0, 0, 0, 1]})
+        assert status == 200 and answer["ok"] is False and answer["error"] == "out of reach"
+
+
+def _json(body: Any) -> str:
+    import json
+
+    return json.dumps(body)  # allow_nan: send a literal NaN as a sloppy client would
