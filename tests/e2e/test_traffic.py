@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import json
 
+import pytest
 from aiohttp import web
 from websockets.asyncio.client import ClientConnection, connect
 
@@ -39,25 +40,31 @@ async def frame_seqs(ws: ClientConnection, n: int) -> list[int]:
 
 
 async def requests_per_sample(base: str, counter: list[int], viewers: int) -> float:
-    """Data-layer requests per published sample while ``viewers`` viewers watch."""
+    """Data-layer requests per published sample, from before ``viewers`` viewers connect."""
     async with contextlib.AsyncExitStack() as stack:
+        before = counter[0]
         sockets = [await stack.enter_async_context(connect(base + "/ws")) for _ in range(viewers)]
         async with asyncio.timeout(20):
-            await asyncio.gather(*(frame_seqs(ws, 3) for ws in sockets))
-            before, seq0 = counter[0], (await frame_seqs(sockets[0], 1))[0]
-            await asyncio.gather(*(frame_seqs(ws, 25) for ws in sockets))
-            after, seq1 = counter[0], (await frame_seqs(sockets[0], 1))[0]
+            seq0 = (await frame_seqs(sockets[0], 1))[0]
+            await asyncio.gather(*(frame_seqs(ws, 40) for ws in sockets))
+            seq1 = (await frame_seqs(sockets[0], 1))[0]
+        after = counter[0]
     return (after - before) / (seq1 - seq0)
 
 
-async def test_ten_viewers_cause_the_same_traffic_as_one() -> None:
+@pytest.mark.parametrize("mode", ["subscribe", "poll"])
+async def test_ten_viewers_cause_the_same_traffic_as_one(mode: str) -> None:
     app = build_app()
     counter = count_requests(app)
     async with running_mock(app) as (_, mock_url):
-        async with running_server(Settings(ctrlx_url=mock_url)) as base:
+        settings = Settings(ctrlx_url=mock_url, ctrlx_mode=mode)  # type: ignore[arg-type]
+        async with running_server(settings) as base:
             ws_base = base.replace("http", "ws")
             one = await requests_per_sample(ws_base, counter, 1)
             ten = await requests_per_sample(ws_base, counter, 10)
-    assert one > 0
-    # Up to one sample's worth of requests may fall either side of the window edges.
-    assert abs(ten - one) <= max(0.25 * one, 1.0)
+    if mode == "poll":
+        assert one > 0.5  # one bulk read per sample
+    else:
+        assert one < 0.5  # one stream, not a request per sample
+    # Were each viewer to cause its own reads or subscription, ten would be far above one.
+    assert ten <= one * 1.25 + 0.1, (one, ten)
