@@ -25,7 +25,6 @@ import numpy.typing as npt
 
 Array = npt.NDArray[np.float64]
 
-_BOTTOM_ROW = (0.0, 0.0, 0.0, 1.0)
 _IDENTITY = np.eye(4)
 BLOCK = 4096  # samples per pass of ``large_batch``; its buffers then fit in L2/L3
 
@@ -47,6 +46,7 @@ class ChainConstants:
     a: tuple[float, ...]
     theta_offset: tuple[float, ...]
     theta_offset_array: Array
+    joints: tuple[tuple[float, float, float, float, float], ...]  # offset, cos/sin alpha, a, d
     cos_alpha: tuple[float, ...]
     sin_alpha: tuple[float, ...]
     # Joint transform as c * cos_part + s * sin_part + fixed_part, shape (n, 4, 4).
@@ -83,6 +83,7 @@ def chain_constants(
         a=tuple(a.tolist()),
         theta_offset=tuple(theta_offset.tolist()),
         theta_offset_array=theta_offset,
+        joints=tuple(zip(theta_offset.tolist(), ca, sa, a.tolist(), d.tolist(), strict=True)),
         cos_alpha=ca,
         sin_alpha=sa,
         cos_part=parts[0],
@@ -95,43 +96,61 @@ def one_config(k: ChainConstants, q: list[float]) -> Array:
     """Frames ``(n + 1, 4, 4)`` of one configuration ``q`` (rad), on Python floats.
 
     The running frame is twelve locals (rotation columns x, y, z and origin p,
-    row by row); each move updates only the columns it touches.
+    row by row); each move updates only the columns it touches, and a quarter
+    turn about x (most arms' alphas) only swaps y and z with a sign. The two
+    conventions are two loops because a branch per move costs as much as a move.
     """
     r00, r01, r02, p0 = 1.0, 0.0, 0.0, 0.0
     r10, r11, r12, p1 = 0.0, 1.0, 0.0, 0.0
     r20, r21, r22, p2 = 0.0, 0.0, 1.0, 0.0
-    out = [r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, *_BOTTOM_ROW]
+    out = [r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, 0.0, 0.0, 0.0, 1.0]
     cos, sin = math.cos, math.sin
-    modified = k.modified
-    for qi, off, ca, sa, ai, di in zip(
-        q, k.theta_offset, k.cos_alpha, k.sin_alpha, k.a, k.d, strict=True
-    ):
-        if modified:  # Rx(alpha) then Tx(a), before the joint turns.
-            r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
-            r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
-            r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
-            if ai:
+    if k.modified:
+        for qi, (off, ca, sa, ai, di) in zip(q, k.joints, strict=True):
+            if ca == 0.0:  # Rx(alpha), a quarter turn
+                r01, r02, r11, r12, r21, r22 = (
+                    sa * r02, -sa * r01, sa * r12, -sa * r11, sa * r22, -sa * r21
+                )
+            else:
+                r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
+                r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
+                r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
+            if ai:  # Tx(a)
                 p0 += ai * r00
                 p1 += ai * r10
                 p2 += ai * r20
-        c, s = cos(qi + off), sin(qi + off)
-        r00, r01 = c * r00 + s * r01, c * r01 - s * r00
-        r10, r11 = c * r10 + s * r11, c * r11 - s * r10
-        r20, r21 = c * r20 + s * r21, c * r21 - s * r20
-        if di:
-            p0 += di * r02
-            p1 += di * r12
-            p2 += di * r22
-        if not modified:  # Tx(a) then Rx(alpha), after the joint turns.
-            if ai:
+            c, s = cos(qi + off), sin(qi + off)  # Rz(theta)
+            r00, r01 = c * r00 + s * r01, c * r01 - s * r00
+            r10, r11 = c * r10 + s * r11, c * r11 - s * r10
+            r20, r21 = c * r20 + s * r21, c * r21 - s * r20
+            if di:  # Tz(d)
+                p0 += di * r02
+                p1 += di * r12
+                p2 += di * r22
+            out += (r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, 0.0, 0.0, 0.0, 1.0)
+    else:
+        for qi, (off, ca, sa, ai, di) in zip(q, k.joints, strict=True):
+            c, s = cos(qi + off), sin(qi + off)  # Rz(theta)
+            r00, r01 = c * r00 + s * r01, c * r01 - s * r00
+            r10, r11 = c * r10 + s * r11, c * r11 - s * r10
+            r20, r21 = c * r20 + s * r21, c * r21 - s * r20
+            if di:  # Tz(d)
+                p0 += di * r02
+                p1 += di * r12
+                p2 += di * r22
+            if ai:  # Tx(a)
                 p0 += ai * r00
                 p1 += ai * r10
                 p2 += ai * r20
-            r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
-            r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
-            r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
-        out += (r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2)
-        out += _BOTTOM_ROW
+            if ca == 0.0:  # Rx(alpha), a quarter turn
+                r01, r02, r11, r12, r21, r22 = (
+                    sa * r02, -sa * r01, sa * r12, -sa * r11, sa * r22, -sa * r21
+                )
+            else:
+                r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
+                r11, r12 = ca * r11 + sa * r12, ca * r12 - sa * r11
+                r21, r22 = ca * r21 + sa * r22, ca * r22 - sa * r21
+            out += (r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, 0.0, 0.0, 0.0, 1.0)
     return np.frombuffer(array("d", out)).reshape(-1, 4, 4)
 
 
