@@ -11,7 +11,7 @@ into the moves of its convention, applied to the frame's columns:
 ``one_config`` runs on Python floats (a NumPy call costs about a microsecond,
 more than a whole joint here); ``small_batch`` multiplies stacked 4x4 matrices;
 ``large_batch`` works on structure-of-arrays columns, contiguous over samples,
-and transposes once at the end.
+in cache-sized blocks that it transposes into the result.
 """
 
 from __future__ import annotations
@@ -44,7 +44,6 @@ class ChainConstants:
     modified: bool
     d: tuple[float, ...]
     a: tuple[float, ...]
-    theta_offset: tuple[float, ...]
     theta_offset_array: Array
     joints: tuple[tuple[float, float, float, float, float], ...]  # offset, cos/sin alpha, a, d
     cos_alpha: tuple[float, ...]
@@ -81,7 +80,6 @@ def chain_constants(
         modified=modified,
         d=tuple(d.tolist()),
         a=tuple(a.tolist()),
-        theta_offset=tuple(theta_offset.tolist()),
         theta_offset_array=theta_offset,
         joints=tuple(zip(theta_offset.tolist(), ca, sa, a.tolist(), d.tolist(), strict=True)),
         cos_alpha=ca,
@@ -206,9 +204,10 @@ def large_batch(k: ChainConstants, q: Array, flange_only: bool = False) -> Array
 
     Frames are built in ``soa[frame, 4 * row + col, sample]`` (rows 0-2) so
     that each column update is a few long contiguous passes, then transposed
-    into the result. Samples go through in blocks of ``BLOCK`` so the work buffer stays
-    in cache between the updates and the transpose. Cos and sin come from the
-    half-angle tangent: NumPy vectorises ``tan`` but not ``sin``/``cos``.
+    into the result. Samples go through in blocks of ``BLOCK`` so the work
+    buffer stays in cache between the updates and the transpose. Cos and sin
+    come from the half-angle tangent: NumPy vectorises ``tan`` but not
+    ``sin``/``cos`` for float64.
     """
     m, n = q.shape
     half = q.T + k.theta_offset_array[:, None]

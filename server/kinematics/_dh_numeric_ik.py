@@ -1,7 +1,7 @@
 """Numerical inverse kinematics for any revolute DH chain: damped least squares.
 
-Levenberg-Marquardt with Sugihara's damping (``lambda = E + w``, ``E`` half
-the squared pose error), joint limits enforced by clipping after each step.
+Levenberg-Marquardt with damping after Sugihara (``lambda = g |e|^2 + w``,
+``e`` the pose error), joint limits enforced by clipping after each step.
 Every target is tried from several starts at once, rows of one batch: the
 caller's reference configuration first, then random configurations drawn
 within the limits. Every ``RESTART_EVERY`` iterations, a start that is still
@@ -9,8 +9,9 @@ far from its target, or has not at least quartered its squared error since the
 last check (stuck at a local minimum or a limit), is replaced by a fresh
 random one. The generator is seeded, so a call's result depends only on its arguments.
 
-Pose error is taken in the base frame: position in metres, rotation as the
-rotation vector (rad) taking the current flange orientation to the target's.
+Pose error is taken in the base frame: position in metres, rotation as
+``sin(angle) * axis`` of the turn from the current flange orientation to the
+target's (the rotation vector, in rad, as it converges).
 """
 
 from __future__ import annotations
@@ -33,10 +34,10 @@ _SKEW_A, _SKEW_B = [7, 2, 3], [5, 6, 1]
 _LEVI_CIVITA = np.zeros((9, 3))
 _LEVI_CIVITA[[5, 6, 1], [0, 1, 2]] = 1.0
 _LEVI_CIVITA[[7, 2, 3], [0, 1, 2]] = -1.0
-# Sugihara's w (m^2, rad^2): keeps the step defined at singular configurations, yet
-# small enough that nearly singular directions (sigma ~ 1e-6) still converge.
+# w (m^2, rad^2): keeps the step defined at singular configurations, yet small
+# enough that nearly singular directions (sigma ~ 1e-6) still converge.
 DAMPING_FLOOR = 1e-12
-DAMPING_GAIN = 0.1
+DAMPING_GAIN = 0.1  # g: Sugihara's 0.5 damps the first, far-off steps more than needed
 RESTART_ABOVE = 1e-3  # a start whose error is still above this at a restart check is redrawn
 RESTART_PROGRESS = 0.25  # ... and so is one whose squared error shrank by less than this factor
 

@@ -156,12 +156,13 @@ class DHChain:
         Numerical (damped least squares from ``q_ref`` and seeded random starts,
         see ``_dh_numeric_ik``); among the solutions found, the one nearest
         ``q_ref`` ``(..., n)`` is returned. ``ok`` is False where no start
-        converged to 1e-10 m and 1e-10 rad; there ``q`` is ``q_ref`` clipped to
-        the limits (or mid-range).
+        converged (pose error below 1e-10, m and rad) or the input is not
+        finite; there ``q`` is ``q_ref`` clipped to the limits (or mid-range).
         """
         target = np.asarray(pose, dtype=np.float64)
         lead = target.shape[:-2]
         flat_target = target.reshape(-1, 4, 4)
+        lim = self.joint_limits()
         ref = None
         if q_ref is not None:
             ref = np.broadcast_to(self._joints(q_ref), lead + (self.n_joints,))
@@ -169,10 +170,13 @@ class DHChain:
         finite = _all_along_last(np.isfinite(flat_target.reshape(-1, 16)))
         if ref is not None:
             finite &= _all_along_last(np.isfinite(ref))
-        if not finite.all():  # solve a harmless stand-in, reported as not ok
-            flat_target = np.where(finite[:, None, None], flat_target, np.eye(4))
-            ref = None if ref is None else np.where(finite[:, None], ref, 0.0)
-        q, ok = _dh_numeric_ik.solve(
-            self._frames, self._k.modified, self.joint_limits(), flat_target, ref
-        )
-        return q.reshape(lead + (self.n_joints,)), (ok & finite).reshape(lead)
+        middle = 0.5 * (lim[:, 0] + lim[:, 1])
+        q = np.clip(middle if ref is None else np.nan_to_num(ref), lim[:, 0], lim[:, 1])
+        q = np.array(np.broadcast_to(q, (flat_target.shape[0], self.n_joints)))
+        ok = np.zeros(flat_target.shape[0], dtype=bool)
+        if finite.any():
+            q[finite], ok[finite] = _dh_numeric_ik.solve(
+                self._frames, self._k.modified, lim, flat_target[finite],
+                None if ref is None else ref[finite],
+            )
+        return q.reshape(lead + (self.n_joints,)), ok.reshape(lead)
