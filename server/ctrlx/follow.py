@@ -271,9 +271,9 @@ async def _poll(
         yield sample
         next_tick += period_s
         delay = next_tick - time.monotonic()
-        if delay < 0.0:  # fell behind: skip the missed ticks rather than burst
+        if delay < -period_s:  # a whole period behind: skip ticks rather than burst
             next_tick, delay = time.monotonic(), 0.0
-        await asyncio.sleep(delay)
+        await asyncio.sleep(max(delay, 0.0))  # a little late: catch up, keep the rate
 
 
 async def _read_bulk(client: DataLayerClient, nodes: list[str]) -> Sample:

@@ -176,9 +176,9 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
                     last_write = now
             next_tick += publish_s
             delay = next_tick - loop.time()
-            if delay < 0.0:  # fell behind: skip cycles rather than burst
+            if delay < -publish_s:  # a whole cycle behind: skip cycles rather than burst
                 next_tick, delay = loop.time(), 0.0
-            await asyncio.sleep(delay)
+            await asyncio.sleep(max(delay, 0.0))  # a little late: catch up, keep the rate
         await response.write_eof()
     except ConnectionResetError:
         pass  # the client went away
