@@ -16,6 +16,10 @@ eight configurations, numbered ``k = 4 * arm + 2 * elbow + wrist``:
   (with joint 3 at 0, the seed's joint 1 and joint 1 + pi);
 * ``elbow``: joint 4 is positive (0) or negative (1);
 * ``wrist``: joint 6 is positive (0) or negative (1).
+
+Near a straight elbow with the wrist centre on the base axis, joints 1 and 4
+rest on square roots of rounding errors (about 1e-8 rad); there ``reached``
+can be False for all eight, and ``inverse`` falls back to the numerical solver.
 """
 
 from __future__ import annotations
