@@ -29,60 +29,65 @@ def planar_poses(xy: Array, heading: Array) -> Array:
     return pose
 
 
+def _shepperd_map() -> tuple[Array, Array]:
+    """Linear map from the 9 matrix entries to Shepperd's 4 candidate quaternions (x, y, z, w)."""
+    # Each candidate is (sign, i, j) terms of m[i, j] plus a constant; candidate k
+    # is the one to use when its k-th "diagonal" term (4 q_k^2) is the largest.
+    terms = [
+        [
+            [(1, 2, 1), (-1, 1, 2)],
+            [(1, 0, 2), (-1, 2, 0)],
+            [(1, 1, 0), (-1, 0, 1)],
+            [(1, 0, 0), (1, 1, 1), (1, 2, 2)],
+        ],
+        [
+            [(1, 0, 0), (-1, 1, 1), (-1, 2, 2)],
+            [(1, 0, 1), (1, 1, 0)],
+            [(1, 0, 2), (1, 2, 0)],
+            [(1, 2, 1), (-1, 1, 2)],
+        ],
+        [
+            [(1, 0, 1), (1, 1, 0)],
+            [(-1, 0, 0), (1, 1, 1), (-1, 2, 2)],
+            [(1, 1, 2), (1, 2, 1)],
+            [(1, 0, 2), (-1, 2, 0)],
+        ],
+        [
+            [(1, 0, 2), (1, 2, 0)],
+            [(1, 1, 2), (1, 2, 1)],
+            [(-1, 0, 0), (-1, 1, 1), (1, 2, 2)],
+            [(1, 1, 0), (-1, 0, 1)],
+        ],
+    ]
+    linear, constant = np.zeros((9, 16)), np.zeros(16)
+    for k, candidate in enumerate(terms):
+        for c, component in enumerate(candidate):
+            for sign, i, j in component:
+                linear[3 * i + j, 4 * k + c] += sign
+    for col in (3, 4, 9, 14):  # the "1 +" of each candidate's diagonal term
+        constant[col] = 1.0
+    return linear, constant
+
+
+_SHEPPERD_LINEAR, _SHEPPERD_CONSTANT = _shepperd_map()
+_DIAGONAL_TERMS = (np.arange(4), np.array([3, 0, 1, 2]))
+
+
 def quat_xyzw_from_matrix(rot: Array) -> Array:
     """Unit quaternions (x, y, z, w), w >= 0, from rotation matrices ``(..., 3, 3)``.
 
-    Shepperd's method: branch per element on the largest diagonal term so the
-    square root never sees a small argument.
+    Shepperd's method: of four candidate formulas, each element uses the one
+    whose leading term is largest, so no square root sees a small argument. The
+    candidates are linear in the matrix entries, hence one matrix product:
+    this runs for every link of every frame.
     """
     m = np.asarray(rot, dtype=np.float64)
-    m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
-    trace = m00 + m11 + m22
-    cand = np.stack(
-        [
-            np.stack(
-                [
-                    m[..., 2, 1] - m[..., 1, 2],
-                    m[..., 0, 2] - m[..., 2, 0],
-                    m[..., 1, 0] - m[..., 0, 1],
-                    1.0 + trace,
-                ],
-                -1,
-            ),
-            np.stack(
-                [
-                    1.0 + m00 - m11 - m22,
-                    m[..., 0, 1] + m[..., 1, 0],
-                    m[..., 0, 2] + m[..., 2, 0],
-                    m[..., 2, 1] - m[..., 1, 2],
-                ],
-                -1,
-            ),
-            np.stack(
-                [
-                    m[..., 0, 1] + m[..., 1, 0],
-                    1.0 - m00 + m11 - m22,
-                    m[..., 1, 2] + m[..., 2, 1],
-                    m[..., 0, 2] - m[..., 2, 0],
-                ],
-                -1,
-            ),
-            np.stack(
-                [
-                    m[..., 0, 2] + m[..., 2, 0],
-                    m[..., 1, 2] + m[..., 2, 1],
-                    1.0 - m00 - m11 + m22,
-                    m[..., 1, 0] - m[..., 0, 1],
-                ],
-                -1,
-            ),
-        ],
-        -2,
-    )
-    pick = np.argmax(np.stack([trace, m00, m11, m22], -1), axis=-1)
-    q = np.take_along_axis(cand, pick[..., None, None], axis=-2)[..., 0, :]
-    q /= np.linalg.norm(q, axis=-1, keepdims=True)
-    return np.where(q[..., 3:4] < 0.0, -q, q)
+    lead = m.shape[:-2]
+    cand = (m.reshape(-1, 9) @ _SHEPPERD_LINEAR + _SHEPPERD_CONSTANT).reshape(-1, 4, 4)
+    pick = np.argmax(cand[:, _DIAGONAL_TERMS[0], _DIAGONAL_TERMS[1]], axis=-1)
+    q = cand[np.arange(cand.shape[0]), pick]
+    q *= np.copysign(1.0, q[:, 3:4]) / np.linalg.norm(q, axis=-1, keepdims=True)
+    return q.reshape(lead + (4,))
 
 
 def matrix_from_quat_xyzw(quat: Array) -> Array:

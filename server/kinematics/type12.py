@@ -30,8 +30,27 @@ _TCP_POSE = planar_poses(np.zeros(2), np.zeros(()))
 _BLOCK = 8192  # configurations per pass of ``forward``
 
 
+def _circle_circle_xy(
+    x0: Array, y0: Array, r0: float, x1: Array, y1: Array, r1: float, direction: int
+) -> tuple[Array, Array, BoolArray]:
+    """``circle_circle_intersection`` on separate x and y arrays (the hot path's form)."""
+    dx, dy = x1 - x0, y1 - y0
+    dist = np.hypot(dx, dy)
+    safe = np.where(dist > 0.0, dist, 1.0)
+    cos_t = (dist**2 + r0**2 - r1**2) / (2.0 * safe * r0)
+    # The seed states 0 < cos < 1; geometrically the circles meet for |cos| <= 1
+    # (an obtuse angle at c0 is a valid posture), so that is the test used here.
+    ok = (dist > 0.0) & (np.abs(cos_t) <= 1.0)
+    cos_t = np.clip(cos_t, -1.0, 1.0)
+    sin_t = direction * np.sqrt(1.0 - cos_t**2)
+    ux, uy = dx / safe * r0, dy / safe * r0
+    x = np.where(ok, x0 + (cos_t * ux - sin_t * uy), x0)
+    y = np.where(ok, y0 + (sin_t * ux + cos_t * uy), y0)
+    return x, y, ok
+
+
 def circle_circle_intersection(
-    c0: Array, r0: float | Array, c1: Array, r1: float | Array, direction: int
+    c0: Array, r0: float, c1: Array, r1: float, direction: int
 ) -> tuple[Array, BoolArray]:
     """One intersection point of two circles, seed 000 appendix 5.1.
 
@@ -40,20 +59,10 @@ def circle_circle_intersection(
     ``ok`` is False where the circles do not meet; there the point is ``c0``,
     never NaN. Centres have shape ``(..., 2)``.
     """
-    d = c1 - c0
-    dist = np.hypot(d[..., 0], d[..., 1])
-    safe = np.where(dist > 0.0, dist, 1.0)
-    cos_t = (dist**2 + r0**2 - r1**2) / (2.0 * safe * r0)
-    # The seed states 0 < cos < 1; geometrically the circles meet for |cos| <= 1
-    # (an obtuse angle at c0 is a valid posture), so that is the test used here.
-    ok = (dist > 0.0) & (np.abs(cos_t) <= 1.0)
-    cos_t = np.clip(cos_t, -1.0, 1.0)
-    sin_t = direction * np.sqrt(1.0 - cos_t**2)
-    u = d / safe[..., None] * np.asarray(r0)[..., None]
-    point = np.stack(
-        [cos_t * u[..., 0] - sin_t * u[..., 1], sin_t * u[..., 0] + cos_t * u[..., 1]], -1
-    )
-    return np.where(ok[..., None], c0 + point, c0), ok
+    c0, c1 = np.asarray(c0, dtype=np.float64), np.asarray(c1, dtype=np.float64)
+    c0, c1 = np.broadcast_arrays(c0, c1)
+    x, y, ok = _circle_circle_xy(c0[..., 0], c0[..., 1], r0, c1[..., 0], c1[..., 1], r1, direction)
+    return np.stack([x, y], -1), ok
 
 
 def _wrap(angle: Array) -> Array:
@@ -81,10 +90,9 @@ class Type12:
     def _points_xy(self, q: Array) -> tuple[list[Array], BoolArray]:
         """x and y (m, base XY) of T, W, E and the TCP for joints ``q`` (rad), seed AxesToCartesian.
 
-        The same arithmetic, in the same order, as ``circle_circle_intersection``
-        (seed's right-hand solution), on separate x and y arrays: ``forward`` is
-        a hot batch path and stacking pairs costs more than the maths.
-        Non-finite joints are computed as zero and reported in ``ok``.
+        Separate x and y arrays: ``forward`` is a hot batch path and stacking
+        pairs costs more than the maths. Non-finite joints are computed as zero
+        and reported in ``ok``.
         """
         q = np.asarray(q, dtype=np.float64)
         finite = np.ones(q.shape[:-1], dtype=bool)
@@ -95,18 +103,9 @@ class Type12:
         ang_w = q[..., 1] + 1.5 * np.pi
         tx, ty = self.l1 * np.cos(ang_t), self.l1 * np.sin(ang_t)
         wx, wy = self.l5 * np.cos(ang_w), self.l5 * np.sin(ang_w)
-        # E: circles (T, L3) and (W, L4), turned by -theta from T towards W.
-        r0, r1 = self.l3, self.l4
-        dx, dy = wx - tx, wy - ty
-        dist = np.hypot(dx, dy)
-        safe = np.where(dist > 0.0, dist, 1.0)
-        cos_t = (dist**2 + r0**2 - r1**2) / (2.0 * safe * r0)
-        ok = (dist > 0.0) & (np.abs(cos_t) <= 1.0) & finite
-        cos_t = np.clip(cos_t, -1.0, 1.0)
-        sin_t = -1.0 * np.sqrt(1.0 - cos_t**2)
-        ux, uy = dx / safe * r0, dy / safe * r0
-        ex = np.where(ok, tx + (cos_t * ux - sin_t * uy), tx)
-        ey = np.where(ok, ty + (sin_t * ux + cos_t * uy), ty)
+        # E: circles (T, L3) and (W, L4), the seed's right-hand solution.
+        ex, ey, ok = _circle_circle_xy(tx, ty, self.l3, wx, wy, self.l4, -1)
+        ok &= finite
         scale = self.l2 / self.l3
         tcp_x, tcp_y = tx + (ex - tx) * scale, ty + (ey - ty) * scale
         return [tx, ty, wx, wy, ex, ey, tcp_x, tcp_y], ok
@@ -141,12 +140,13 @@ class Type12:
 
     def link_poses(self, q: Array) -> tuple[Array, BoolArray]:
         """Poses ``(..., 4, 4, 4)`` of L1, L5, L4, L2 (``LINK_NAMES`` order) for joints ``q``."""
-        t, w, e, _, ok = self._points(q)
-        origin = np.zeros_like(t)
-        pivots = np.stack([origin, origin, w, t], -2)
-        tips = np.stack([t, w, e, e], -2)
-        d = tips - pivots
-        return planar_poses(pivots, np.arctan2(d[..., 1], d[..., 0])), ok
+        (tx, ty, wx, wy, ex, ey, _, _), ok = self._points_xy(q)
+        zero = np.zeros_like(tx)
+        pivots = np.stack([zero, zero, zero, zero, wx, wy, tx, ty], -1).reshape(tx.shape + (4, 2))
+        heading = np.arctan2(
+            np.stack([ty, wy, ey - wy, ey - ty], -1), np.stack([tx, wx, ex - wx, ex - tx], -1)
+        )
+        return planar_poses(pivots, heading), ok
 
     def inverse(self, pose: Array) -> tuple[Array, BoolArray]:
         """Joints ``(..., 2)`` (rad, in [-pi, pi)) putting the TCP at ``pose`` ``(..., 4, 4)``.
