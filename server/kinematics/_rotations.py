@@ -85,7 +85,7 @@ def quat_xyzw_from_matrix(rot: Array) -> Array:
     lead = m.shape[:-2]
     cand = (m.reshape(-1, 9) @ _SHEPPERD_LINEAR + _SHEPPERD_CONSTANT).reshape(-1, 4, 4)
     pick = np.argmax(cand[:, _DIAGONAL_TERMS[0], _DIAGONAL_TERMS[1]], axis=-1)
-    q = cand[np.arange(cand.shape[0]), pick]
+    q: Array = cand[np.arange(cand.shape[0]), pick]
     q *= np.copysign(1.0, q[:, 3:4]) / np.linalg.norm(q, axis=-1, keepdims=True)
     return q.reshape(lead + (4,))
 
