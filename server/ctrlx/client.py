@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import ssl
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -162,13 +164,19 @@ class DataLayerClient:
     ) -> tuple[int, Any]:
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         self.traffic.requests += 1
-        try:
+        with self._transport_errors(method, path):
             async with self._http().request(
                 method, self.base_url + path, headers=headers, ssl=self._ssl, **kwargs
             ) as resp:
                 raw = await resp.read()
                 self.traffic.bytes_in += len(raw)
                 return resp.status, _decode(resp.content_type, raw)
+
+    @contextlib.contextmanager
+    def _transport_errors(self, method: str, path: str) -> Iterator[None]:
+        """Turn timeouts and connection failures into DataLayerError naming the device."""
+        try:
+            yield
         except TimeoutError as exc:
             raise DataLayerError(
                 f"{method} {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
@@ -188,7 +196,7 @@ class DataLayerClient:
         token = await self.tokens.current()
         for attempt in (1, 2):
             self.traffic.requests += 1
-            try:
+            with self._transport_errors("GET", path):
                 async with asyncio.timeout(self.timeout_s):
                     resp = await self._http().get(
                         self.base_url + path,
@@ -200,12 +208,6 @@ class DataLayerClient:
                         ssl=self._ssl,
                         timeout=timeout,
                     )
-            except TimeoutError as exc:
-                raise DataLayerError(
-                    f"GET {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
-                ) from exc
-            except aiohttp.ClientError as exc:
-                raise connection_error(self.base_url, exc) from exc
             if resp.status == 200 and resp.content_type == "text/event-stream":
                 return resp
             try:
