@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import asyncio
 import json
+import logging
 from typing import Any
 
 import aiohttp
+import pytest
 from pydantic import SecretStr
 from websockets.asyncio.client import connect
 
@@ -120,3 +122,20 @@ async def test_data_layer_down_then_up_recovers() -> None:
             await runner.cleanup()
     assert health["sources"][0]["error"] is None
     assert frames["kin12"]["ok"] is True
+
+
+async def test_passwords_and_tokens_never_reach_the_log(caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.DEBUG)
+    secret = "Sup3r-s3cret-pw"
+    async with running_mock() as (_, url):
+        bad = Settings(ctrlx_url=url, ctrlx_password=SecretStr(secret))
+        async with running_server(bad) as base:
+            await wait_for_health(base, lambda h: h["sources"][0]["state"] == "error")
+        async with running_server(Settings(ctrlx_url=url)) as base:
+            await wait_for_health(base, lambda h: h["sources"][0]["state"] == "connected")
+            await latest_frames(base, {"kin12"})
+    text = "\n".join(r.getMessage() for r in caplog.records)
+    assert "logged in" in text or "subscri" in text, "the log should say what happened"
+    assert "401" in text
+    for leak in (secret, "boschrexroth\"", "password=boschrexroth", "eyJ"):  # eyJ: a JWT
+        assert leak not in text
