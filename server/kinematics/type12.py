@@ -99,10 +99,11 @@ class Type12:
         if not np.isfinite(q).all():
             finite = np.asarray(np.isfinite(q).all(axis=-1), dtype=bool)
             q = np.where(finite[..., None], q, 0.0)
-        ang_t = q[..., 0] + np.pi
-        ang_w = q[..., 1] + 1.5 * np.pi
-        tx, ty = self.l1 * np.cos(ang_t), self.l1 * np.sin(ang_t)
-        wx, wy = self.l5 * np.cos(ang_w), self.l5 * np.sin(ang_w)
+        # T at angle a0 + 180 deg and W at a1 + 270 deg (seed), by identities
+        # rather than shifted angles: two passes fewer, and exact at the zero posture.
+        a0, a1 = q[..., 0], q[..., 1]
+        tx, ty = -self.l1 * np.cos(a0), -self.l1 * np.sin(a0)
+        wx, wy = self.l5 * np.sin(a1), -self.l5 * np.cos(a1)
         # E: circles (T, L3) and (W, L4), the seed's right-hand solution.
         ex, ey, ok = _circle_circle_xy(tx, ty, self.l3, wx, wy, self.l4, -1)
         ok &= finite
