@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 import uvicorn
+from pydantic import ValidationError
 
 from .config import Settings
 from .logs import setup_logging
@@ -45,7 +46,11 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
     }
-    return Settings(**{k: v for k, v in overrides.items() if v is not None})
+    try:
+        return Settings(**{k: v for k, v in overrides.items() if v is not None})
+    except ValidationError as exc:  # a readable line per bad setting, not a traceback
+        problems = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
+        parser.error(problems)
 
 
 def main(argv: list[str] | None = None) -> None:

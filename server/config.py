@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Literal
+from urllib.parse import urlsplit
 
-from pydantic import Field, SecretStr
+from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 
@@ -35,3 +36,14 @@ class Settings(BaseSettings):
     request_timeout_s: float = Field(5.0, gt=0.0)
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
+
+    @field_validator("ctrlx_url")
+    @classmethod
+    def _no_credentials_in_url(cls, url: str | None) -> str | None:
+        # The URL is shown in the log, /api/health and on the page.
+        if url is not None and (urlsplit(url).username or urlsplit(url).password):
+            raise ValueError(
+                "put the user and password in LINKVIEW_CTRLX_USER/_PASSWORD, "
+                "not in the controller URL"
+            )
+        return url

@@ -46,10 +46,10 @@ class InverseResult:
 
 
 def _joint_rows(robot: Robot, joints: list[list[float]]) -> Array:
-    q = np.asarray(joints, dtype=np.float64)
     n = len(robot.joints)
-    if q.ndim != 2 or q.shape[1] != n:
+    if any(len(row) != n for row in joints):
         raise TransformInputError(f"{robot.name} has {n} joints; each row must hold {n} values")
+    q = np.asarray(joints, dtype=np.float64).reshape(len(joints), n)
     if not np.isfinite(q).all():
         raise TransformInputError("joint values must be finite numbers")
     return q
@@ -58,7 +58,7 @@ def _joint_rows(robot: Robot, joints: list[list[float]]) -> Array:
 def forward(robot: Robot, joints: list[list[float]]) -> ForwardResult:
     """TCP pose of each joint row (rad or m, hello order)."""
     q = _joint_rows(robot, joints)
-    _, tcp, ok = robot.poses(q)
+    tcp, ok = robot.kinematics.forward(q)
     rpy = rpy_from_matrix(tcp[..., :3, :3])
     good = np.asarray(ok, dtype=bool)
     return ForwardResult(

@@ -145,7 +145,9 @@ def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | Non
         return Keepalive(t_source)
     node = data.get("node")
     if event.event == "error":
-        problem = problem_for_status(int(data.get("status") or 500), data, "subscription error")
+        status = data.get("status")
+        status = status if isinstance(status, int) and 400 <= status <= 599 else 500
+        problem = problem_for_status(status, data, "subscription error")
         node = node if isinstance(node, str) else _node_of_instance(problem, nodes_prefix)
         if node is None:
             raise problem

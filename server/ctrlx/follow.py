@@ -21,7 +21,7 @@ import logging
 import math
 import random
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncGenerator, AsyncIterator
 from dataclasses import dataclass
 from typing import Literal
 
@@ -73,7 +73,7 @@ def follow(
     *,
     keepalive_s: float = 1.0,
     retry: RetryPolicy = RetryPolicy(),
-) -> AsyncIterator[Sample]:
+) -> AsyncGenerator[Sample, None]:
     """The samples of ``nodes``, about every ``period_s`` seconds, until cancelled.
 
     ``keepalive_s`` is the subscription's keepalive interval; a stream silent
@@ -92,7 +92,7 @@ async def _follow(
     mode: Mode,
     keepalive_s: float,
     retry: RetryPolicy,
-) -> AsyncIterator[Sample]:
+) -> AsyncGenerator[Sample, None]:
     if mode == "subscribe":
         try:
             async for sample in _subscribe(client, nodes, period_s, keepalive_s, retry):

@@ -24,7 +24,7 @@ def parse_filetime(raw: Any) -> float | None:
 
     Values before 1980 are rejected: a counter or a unix time is no FILETIME.
     """
-    if isinstance(raw, str) and raw.isdigit():
+    if isinstance(raw, str) and raw.isascii() and raw.isdigit():
         raw = int(raw)
     if isinstance(raw, bool) or not isinstance(raw, int):
         return None

@@ -70,8 +70,12 @@ def chain_constants(
         tz = np.eye(4)
         tz[2, 3] = d[i]
         x_move = np.array(
-            [[1.0, 0.0, 0.0, a[i]], [0.0, ca[i], -sa[i], 0.0],
-             [0.0, sa[i], ca[i], 0.0], [0.0, 0.0, 0.0, 1.0]]
+            [
+                [1.0, 0.0, 0.0, a[i]],
+                [0.0, ca[i], -sa[i], 0.0],
+                [0.0, sa[i], ca[i], 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
         )
         before, after = (x_move, tz) if modified else (np.eye(4), tz @ x_move)
         for k, rz in enumerate((rz_cos, rz_sin, rz_fixed)):
@@ -107,7 +111,12 @@ def one_config(k: ChainConstants, q: list[float]) -> Array:
         for qi, (off, ca, sa, ai, di) in zip(q, k.joints, strict=True):
             if ca == 0.0:  # Rx(alpha), a quarter turn
                 r01, r02, r11, r12, r21, r22 = (
-                    sa * r02, -sa * r01, sa * r12, -sa * r11, sa * r22, -sa * r21
+                    sa * r02,
+                    -sa * r01,
+                    sa * r12,
+                    -sa * r11,
+                    sa * r22,
+                    -sa * r21,
                 )
             else:
                 r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
@@ -142,7 +151,12 @@ def one_config(k: ChainConstants, q: list[float]) -> Array:
                 p2 += ai * r20
             if ca == 0.0:  # Rx(alpha), a quarter turn
                 r01, r02, r11, r12, r21, r22 = (
-                    sa * r02, -sa * r01, sa * r12, -sa * r11, sa * r22, -sa * r21
+                    sa * r02,
+                    -sa * r01,
+                    sa * r12,
+                    -sa * r11,
+                    sa * r22,
+                    -sa * r21,
                 )
             else:
                 r01, r02 = ca * r01 + sa * r02, ca * r02 - sa * r01
@@ -167,7 +181,12 @@ def small_batch(k: ChainConstants, q: Array) -> Array:
 
 
 def _turn(
-    u: Array, v: Array, c: Array | float, s: Array | float, out_u: Array, out_v: Array,
+    u: Array,
+    v: Array,
+    c: Array | float,
+    s: Array | float,
+    out_u: Array,
+    out_v: Array,
     tmp: Array,
 ) -> None:
     """Columns turned in their plane: ``out_u = c u + s v``, ``out_v = c v - s u``."""

@@ -120,7 +120,12 @@ def solve(
             ok[active[done]] = True
             keep = ~done
             active, goal, q, err, square, frames, checked = (
-                active[keep], goal[keep], q[keep], err[keep], square[keep], frames[keep],
+                active[keep],
+                goal[keep],
+                q[keep],
+                err[keep],
+                square[keep],
+                frames[keep],
                 checked[keep],
             )
             if active.size == 0:

@@ -8,6 +8,11 @@ import numpy.typing as npt
 Array = npt.NDArray[np.float64]
 
 
+def wrap_angle(angle: Array) -> Array:
+    """Angles (rad) wrapped to [-pi, pi)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
 def rot_z(angle: Array) -> Array:
     """3x3 rotations about +Z by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
     c, s = np.cos(angle), np.sin(angle)

@@ -64,8 +64,9 @@ class DHChain:
         self.d = _vector(d, n, "d")
         self.a = _vector(a, n, "a")
         self.alpha = _vector(alpha, n, "alpha")
-        self.theta_offset = _vector(np.zeros(n) if theta_offset is None else theta_offset, n,
-                                    "theta_offset")
+        self.theta_offset = _vector(
+            np.zeros(n) if theta_offset is None else theta_offset, n, "theta_offset"
+        )
         self.limits: Array | None = None
         if limits is not None:
             lim = np.array(limits, dtype=np.float64)
@@ -176,7 +177,10 @@ class DHChain:
         ok = np.zeros(flat_target.shape[0], dtype=bool)
         if finite.any():
             q[finite], ok[finite] = _dh_numeric_ik.solve(
-                self._frames, self._k.modified, lim, flat_target[finite],
+                self._frames,
+                self._k.modified,
+                lim,
+                flat_target[finite],
                 None if ref is None else ref[finite],
             )
         return q.reshape(lead + (self.n_joints,)), ok.reshape(lead)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from ._rotations import wrap_angle
 from .dh import DHChain
 
 Array = npt.NDArray[np.float64]
@@ -38,11 +39,6 @@ REACH_TOLERANCE = 1e-9  # m for position, and per rotation-matrix entry
 # Below this |sin(joint 6)| the wrist is singular: only joint 5 +- joint 7 is
 # defined, and (as in the seed) both get half of it.
 WRIST_SINGULAR = 1e-12
-
-
-def _wrap(angle: Array) -> Array:
-    """Angles wrapped to [-pi, pi)."""
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
 @dataclass(frozen=True)
@@ -128,8 +124,10 @@ class LBRiiwa(DHChain):
         singular = np.abs(np.sin(q6)) < WRIST_SINGULAR
         if singular.any():  # the seed: joints 5 and 7 share the turn, +pi each on the flip
             flipped = np.cos(q6) < 0.0  # only q5 - q7 defined there
-            total = np.arctan2(np.where(flipped, -1.0, 1.0) * m[..., 1, 0],
-                               np.where(flipped, -1.0, 1.0) * m[..., 0, 0])
+            total = np.arctan2(
+                np.where(flipped, -1.0, 1.0) * m[..., 1, 0],
+                np.where(flipped, -1.0, 1.0) * m[..., 0, 0],
+            )
             q5 = np.where(singular, 0.5 * total + np.array([0.0, np.pi]), q5)
         c5, s5, c6, s6 = np.cos(q5), np.sin(q5), np.cos(q6), np.sin(q6)
         # Joint 7 from Rz(q7) = Ry(-q6) Rz(-q5) R_47, so it absorbs any error in q5.
@@ -138,7 +136,7 @@ class LBRiiwa(DHChain):
             c6 * (c5 * m[..., 0, 0] + s5 * m[..., 1, 0]) - s6 * m[..., 2, 0],
         )
         q[..., 4], q[..., 5], q[..., 6] = q5, q6, q7
-        q8 = _wrap(q).reshape(b, 8, 7)
+        q8 = wrap_angle(q).reshape(b, 8, 7)
 
         reached_pose, finite = self.forward(q8)
         error = np.abs(reached_pose - flat[:, None]).max(axis=(-1, -2))
@@ -170,7 +168,7 @@ class LBRiiwa(DHChain):
         ref = np.broadcast_to(ref, lead + (7,))
         sol = self.inverse_all(target, ref[..., 2])
         usable = sol.reached & sol.within_limits
-        cost = np.abs(sol.q - _wrap(ref)[..., None, :]).sum(axis=-1)
+        cost = np.abs(sol.q - wrap_angle(ref)[..., None, :]).sum(axis=-1)
         best = np.argmin(np.where(usable, cost, np.inf), axis=-1)
         q = np.take_along_axis(sol.q, best[..., None, None], axis=-2)[..., 0, :]
         ok = np.array(usable.any(axis=-1))

@@ -41,9 +41,7 @@ class _VelocityRamps:
         """Axis positions ``t.shape + (n,)`` (rad or m) at times ``t`` (s)."""
         seg, dt = self._segment(t)
         pos: Array = (
-            self.knot_position[seg]
-            + self.knot_velocity[seg] * dt
-            + 0.5 * self.slope[seg] * dt * dt
+            self.knot_position[seg] + self.knot_velocity[seg] * dt + 0.5 * self.slope[seg] * dt * dt
         )
         return pos
 
@@ -162,8 +160,16 @@ def plan_movej(
     if not np.any(moving):
         zero = np.zeros(n)
         return TrapezoidMove(
-            np.zeros(1), end[None, :].copy(), zero[None, :], zero[None, :],
-            start, end, 0.0, 0.0, zero, zero,
+            np.zeros(1),
+            end[None, :].copy(),
+            zero[None, :],
+            zero[None, :],
+            start,
+            end,
+            0.0,
+            0.0,
+            zero,
+            zero,
         )
     # Seconds (and seconds squared) the slowest axis needs per unit of progress;
     # written as span / limit so tiny distances cannot overflow.
@@ -190,8 +196,16 @@ def plan_movej(
     knot_position = ramps.knot_position.copy()
     knot_position[-1] = end
     return TrapezoidMove(
-        ramps.knots, knot_position, ramps.knot_velocity, ramps.slope,
-        start, end, accel_time, cruise_time, np.abs(peak_v), span / tau_a,
+        ramps.knots,
+        knot_position,
+        ramps.knot_velocity,
+        ramps.slope,
+        start,
+        end,
+        accel_time,
+        cruise_time,
+        np.abs(peak_v),
+        span / tau_a,
     )
 
 
@@ -258,6 +272,14 @@ def plan_speedj(
         vels.append(np.zeros(n))
     ramps = _ramps(start, knots, vels)
     return SpeedMove(
-        ramps.knots, ramps.knot_position, ramps.knot_velocity, ramps.slope,
-        start, initial, target, ramp_time, hold_until, duration,
+        ramps.knots,
+        ramps.knot_position,
+        ramps.knot_velocity,
+        ramps.slope,
+        start,
+        initial,
+        target,
+        ramp_time,
+        hold_until,
+        duration,
     )

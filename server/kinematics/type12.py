@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ._rotations import planar_poses
+from ._rotations import planar_poses, wrap_angle
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -63,11 +63,6 @@ def circle_circle_intersection(
     c0, c1 = np.broadcast_arrays(c0, c1)
     x, y, ok = _circle_circle_xy(c0[..., 0], c0[..., 1], r0, c1[..., 0], c1[..., 1], r1, direction)
     return np.stack([x, y], -1), ok
-
-
-def _wrap(angle: Array) -> Array:
-    """Angles wrapped to [-pi, pi)."""
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
 @dataclass(frozen=True)
@@ -161,7 +156,7 @@ class Type12:
         t, ok_t = circle_circle_intersection(origin, self.l1, tcp, self.l2, -1)
         e = t + (tcp - t) * (self.l3 / self.l2)
         w, ok_w = circle_circle_intersection(origin, self.l5, e, self.l4, 1)
-        a0 = _wrap(np.arctan2(t[..., 1], t[..., 0]) - np.pi)
-        a1 = _wrap(np.arctan2(w[..., 1], w[..., 0]) - 1.5 * np.pi)
+        a0 = wrap_angle(np.arctan2(t[..., 1], t[..., 0]) - np.pi)
+        a1 = wrap_angle(np.arctan2(w[..., 1], w[..., 0]) - 1.5 * np.pi)
         ok = ok_t & ok_w & np.isfinite(tcp).all(axis=-1)
         return np.stack([a0, a1], -1), ok

@@ -22,19 +22,13 @@ from .auth import TokenIssuer
 from .faults import Faults, faults_middleware
 from .machine import Machine
 from .nodes import NodeError, NodeTree
-from .state import STATE_KEY, MockState, problem, problem_body
+from .state import DL_BASE, STATE_KEY, MockState, bearer_token, problem, problem_body
 
 log = logging.getLogger(__name__)
 
 AUTH_BASES = ("/identity-manager/api/v2", "/identity-manager/api/v1.0", "/identity-manager/api/v1")
-DL_BASE = "/automation/api/v2"
 DL_V1_BASES = ("/automation/api/v1", "/automation/api/v1.0")
 DEFAULT_USERS = {"boschrexroth": "boschrexroth"}
-
-
-def _bearer(request: web.Request) -> str | None:
-    header = request.headers.get("Authorization", "")
-    return header[7:] if header.startswith("Bearer ") else None
 
 
 @web.middleware
@@ -54,7 +48,7 @@ async def count_traffic(request: web.Request, handler: Handler) -> web.StreamRes
 async def require_token(request: web.Request, handler: Handler) -> web.StreamResponse:
     """401 Problem for data-layer requests without a valid bearer token."""
     if request.path.startswith("/automation/"):
-        token = _bearer(request)
+        token = bearer_token(request)
         reason = (
             "no bearer token given" if token is None else request.app[STATE_KEY].tokens.check(token)
         )
@@ -85,7 +79,7 @@ async def create_token(request: web.Request) -> web.Response:
 
 async def delete_token(request: web.Request) -> web.Response:
     """DELETE /auth/token: revoke the bearer token (204 whatever it was)."""
-    token = _bearer(request)
+    token = bearer_token(request)
     if token is not None:
         request.app[STATE_KEY].tokens.revoke(token)
     return web.Response(status=204)
@@ -93,7 +87,7 @@ async def delete_token(request: web.Request) -> web.Response:
 
 async def token_validity(request: web.Request) -> web.Response:
     """GET /auth/token/validity: whether the bearer token is still accepted."""
-    token = _bearer(request)
+    token = bearer_token(request)
     valid = token is not None and request.app[STATE_KEY].tokens.check(token) is None
     return web.json_response({"valid": valid})
 

@@ -20,9 +20,16 @@ from aiohttp import web
 from ..ctrlx.paths import encode_node_path
 from ..ctrlx.timestamps import filetime_from_unix
 from .nodes import NodeError
-from .state import STATE_KEY, MockState, SubscriptionSpec, problem, problem_body
+from .state import (
+    DL_BASE,
+    STATE_KEY,
+    MockState,
+    SubscriptionSpec,
+    bearer_token,
+    problem,
+    problem_body,
+)
 
-DL_BASE = "/automation/api/v2"
 MIN_PUBLISH_MS = 5
 """Faster publishing would only burn the CPU the tests share with the server under test."""
 
@@ -138,15 +145,10 @@ class _Publisher:
         return sse("keepalive", self._next_id(), data)
 
 
-def _bearer(request: web.Request) -> str:
-    header = request.headers.get("Authorization", "")
-    return header[7:] if header.startswith("Bearer ") else ""
-
-
 async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResponse:
     """Serve ``spec`` as ``text/event-stream`` until something ends it."""
     state = request.app[STATE_KEY]
-    faults, token = state.faults, _bearer(request)
+    faults, token = state.faults, bearer_token(request) or ""
     response = web.StreamResponse(
         headers={"Content-Type": "text/event-stream", "Cache-Control": "no-cache"}
     )

@@ -12,6 +12,14 @@ from .faults import Faults
 from .machine import Machine
 from .nodes import NodeTree
 
+DL_BASE = "/automation/api/v2"
+
+
+def bearer_token(request: web.Request) -> str | None:
+    """The token of an ``Authorization: Bearer`` header, if there is one."""
+    header = request.headers.get("Authorization", "")
+    return header[7:] if header.startswith("Bearer ") else None
+
 
 @dataclass
 class SubscriptionSpec:

@@ -8,7 +8,9 @@ count never changes the data-layer traffic.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +23,9 @@ from .status import SourceHealth
 from .types import RobotSample
 
 log = logging.getLogger(__name__)
+
+STATUS_EVERY_S = 1.0
+"""Status is also republished this often while healthy, so pages show a live sample age."""
 
 
 @dataclass(frozen=True)
@@ -53,6 +58,7 @@ class Acquisition:
         self._settings = settings
         self._seq = 0
         self._nodes = sorted({node for robot in robots for node in robot.nodes})
+        self._status_sent = 0.0
 
     async def run(self) -> None:
         """Follow the source forever; errors are reported and retried, never raised."""
@@ -66,17 +72,25 @@ class Acquisition:
                     self._settings.mode,
                     keepalive_s=self._settings.keepalive_s,
                 )
-                async for sample in samples:
-                    retry = self._settings.retry_min_s
-                    self._seq += 1
-                    if self.health.mark_sample(sample.t_source):
-                        self._publish_status()
-                    for robot in self._robots:
-                        self._publish_robot(robot, sample)
+                async with contextlib.aclosing(samples):
+                    async for sample in samples:
+                        retry = self._settings.retry_min_s
+                        self._on_sample(sample)
             except DataLayerError as exc:
                 self._report_error(str(exc))
+            except Exception as exc:  # a bug must not end the only stream of this source
+                log.exception("data source %s: unexpected error", self.health.name)
+                self._report_error(f"internal error: {exc!r}")
             await asyncio.sleep(retry)
             retry = min(retry * 2.0, self._settings.retry_max_s)
+
+    def _on_sample(self, sample: Sample) -> None:
+        self._seq += 1
+        now = time.monotonic()
+        if self.health.mark_sample() or now - self._status_sent >= STATUS_EVERY_S:
+            self._publish_status()
+        for robot in self._robots:
+            self._publish_robot(robot, sample)
 
     def _publish_robot(self, robot: Robot, sample: Sample) -> None:
         read = [sample.values[n] for n in robot.nodes]
@@ -87,7 +101,12 @@ class Acquisition:
             values=None if errors else np.array(read, dtype=np.float64),
             error="; ".join(errors) if errors else None,
         )
-        message, ok, error = compute_frame(robot, robot_sample)
+        try:
+            message, ok, error = compute_frame(robot, robot_sample)
+        except Exception as exc:  # one robot's bug must not stop the others
+            log.exception("robot %s: cannot compute the frame", robot.name)
+            failed = RobotSample(robot_sample.seq, robot_sample.t_source, None, repr(exc))
+            message, ok, error = compute_frame(robot, failed)
         if self.health.mark_robot(robot.name, ok, error):
             if ok:
                 log.info("robot %s: streaming", robot.name)
@@ -101,4 +120,5 @@ class Acquisition:
             self._publish_status()
 
     def _publish_status(self) -> None:
+        self._status_sent = time.monotonic()
         self._hub.publish(f"status:{self.health.name}", self.health.status_message())

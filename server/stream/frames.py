@@ -26,7 +26,8 @@ def compute_frame(robot: Robot, sample: RobotSample) -> tuple[bytes, bool, str |
         q = sample.values * robot.to_si
         link_poses, tcp_pose, ok = robot.poses(q)
         if bool(ok):
-            links, tcp = pose7_from_matrix(link_poses), pose7_from_matrix(tcp_pose)
+            links = pose7_from_matrix(link_poses)
+            tcp = links[-1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
         else:
             error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"
     message = {

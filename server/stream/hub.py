@@ -1,6 +1,6 @@
 """Fan-out of encoded messages to viewers: the newest message per key, never a backlog.
 
-Each viewer has one slot per key (``frame:<robot>``, ``status``). Publishing
+Each viewer has one slot per key (``frame:<robot>``, ``status:<source>``). Publishing
 overwrites the slot; a viewer that reads slowly therefore skips stale frames
 instead of queueing them, and can never slow the others down.
 """
@@ -21,7 +21,6 @@ class Viewer:
         self._pending: dict[str, str] = {}
         self._ready = asyncio.Event()
         self.closed = False
-        self.sent = 0
         self.dropped = 0
         """Messages overwritten before this viewer read them."""
 
@@ -45,7 +44,6 @@ class Viewer:
         self._ready.clear()
         batch = list(self._pending.values())
         self._pending.clear()
-        self.sent += len(batch)
         return batch
 
 

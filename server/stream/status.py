@@ -28,11 +28,12 @@ class SourceHealth:
     state: str = "connecting"
     error: str | None = None
     last_sample: float | None = None
+    """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
 
-    def mark_sample(self, t_source: float) -> bool:
+    def mark_sample(self) -> bool:
         """A sample arrived."""
-        self.last_sample = t_source
+        self.last_sample = time.monotonic()
         changed = self.state != "connected"
         self.state, self.error = "connected", None
         return changed
@@ -53,7 +54,7 @@ class SourceHealth:
 
     def status(self) -> SourceStatus:
         """As sent to viewers."""
-        age = None if self.last_sample is None else max(time.time() - self.last_sample, 0.0)
+        age = None if self.last_sample is None else time.monotonic() - self.last_sample
         return SourceStatus(
             name=self.name,
             url=self.url,

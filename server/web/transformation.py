@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Request
@@ -14,21 +13,24 @@ from .routes import runtime_of
 router = APIRouter(prefix="/api/robots")
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
+JointRow = Annotated[list[Finite], Field(min_length=1, max_length=16)]
+MAX_ROWS = 10_000
+"""Rows per /fk call: bounds the work one request can ask of the server."""
 
 
 class ForwardRequest(BaseModel):
     """Joint rows, each in hello order (rad or m)."""
 
     model_config = ConfigDict(extra="forbid")
-    joints: list[list[Finite]] = Field(min_length=1, max_length=100_000)
+    joints: list[JointRow] = Field(min_length=1, max_length=MAX_ROWS)
 
 
 class InverseRequest(BaseModel):
     """A TCP pose [x, y, z, qx, qy, qz, qw] (m), a reference posture, and whether to list all."""
 
     model_config = ConfigDict(extra="forbid")
-    tcp: list[Finite]
-    joints_ref: list[Finite] | None = None
+    tcp: Annotated[list[Finite], Field(min_length=7, max_length=7)]
+    joints_ref: JointRow | None = None
     all: bool = False
 
 
@@ -41,19 +43,21 @@ def _robot(request: Request, name: str) -> Robot:
 
 def _run(call: Any, *args: Any) -> dict[str, Any]:
     try:
-        result: dict[str, Any] = asdict(call(*args))
+        result: dict[str, Any] = vars(call(*args))
     except transformation.TransformInputError as exc:
         raise HTTPException(status_code=422, detail=str(exc)) from exc
     return result
 
 
+# Plain ``def`` routes run in FastAPI's threadpool: the numpy work stays off the
+# event loop that streams to viewers.
 @router.post("/{name}/fk")
-async def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
+def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
     """TCP pose and roll-pitch-yaw for each joint row."""
     return _run(transformation.forward, _robot(request, name), body.joints)
 
 
 @router.post("/{name}/ik")
-async def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
+def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
     """Joint solutions for a TCP pose; ``best`` is nearest ``joints_ref``."""
     return _run(transformation.inverse, _robot(request, name), body.tcp, body.joints_ref, body.all)

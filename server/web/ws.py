@@ -43,8 +43,9 @@ async def viewer_socket(websocket: WebSocket) -> None:
         await websocket.send_text(hello_message(runtime))
         while not viewer.closed:
             batch = await viewer.take()
-            for message in batch:
-                await asyncio.wait_for(websocket.send_text(message), SEND_TIMEOUT_S)
+            async with asyncio.timeout(SEND_TIMEOUT_S):
+                for message in batch:
+                    await websocket.send_text(message)
     except (WebSocketDisconnect, RuntimeError, ConnectionError):
         pass
     except TimeoutError:
@@ -55,9 +56,9 @@ async def viewer_socket(websocket: WebSocket) -> None:
 
 
 async def _drain_incoming(websocket: WebSocket) -> None:
-    """Read (and ignore) what the viewer sends, so a close is noticed promptly."""
+    """Read (and ignore) whatever the viewer sends, text or binary, until it disconnects."""
     try:
-        while True:
-            await websocket.receive_text()
-    except (WebSocketDisconnect, RuntimeError, KeyError):
+        while (await websocket.receive())["type"] != "websocket.disconnect":
+            pass
+    except (WebSocketDisconnect, RuntimeError):
         return

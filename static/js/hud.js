@@ -40,7 +40,7 @@ class Hud {
 		this.bannerEl = root.getElementById( 'banner' );
 		this.connection = 'connecting';
 		this.retryAt = 0;
-		this.sources = [];
+		this.sources = new Map(); // source name -> its newest SourceStatus (one per message)
 		this.problem = null;
 		this._cards = new Map(); // robot name -> { joints: [valueEl], state, error, counted, time }
 
@@ -84,7 +84,8 @@ class Hud {
 			error.hidden = true;
 			card.append( title, joints, state, error );
 			this.robotsEl.append( card );
-			this._cards.set( robot.name, { swatch, values, state, error, counted: 0, time: performance.now(), rate: 0 } );
+			const counted = views.get( robot.name )?.framesReceived ?? 0; // views survive a reconnect
+			this._cards.set( robot.name, { swatch, values, state, error, counted, time: performance.now(), rate: 0 } );
 
 		}
 		this.refreshColors( views );
@@ -104,9 +105,9 @@ class Hud {
 
 	setStatus( status ) {
 
-		this.sources = status.sources;
+		for ( const source of status.sources ) this.sources.set( source.name, source );
 		this.sourcesEl.replaceChildren();
-		for ( const source of status.sources ) {
+		for ( const source of this.sources.values() ) {
 
 			const item = element( 'li' );
 			item.title = source.url;
@@ -165,7 +166,7 @@ class Hud {
 
 		let text = null;
 		let warn = false;
-		const source = this.sources.find( ( candidate ) => candidate.state === 'error' );
+		const source = [ ...this.sources.values() ].find( ( candidate ) => candidate.state === 'error' );
 		if ( this.connection !== 'connected' ) {
 
 			const seconds = Math.max( 0, Math.ceil( ( this.retryAt - performance.now() ) / 1000 ) );

@@ -30,4 +30,9 @@ window.linkview = Object.freeze( {
 	},
 } );
 
-window.addEventListener( 'pagehide', () => app.dispose(), { once: true } );
+// A page kept in the back/forward cache must come back alive: dispose only for good.
+window.addEventListener( 'pagehide', ( event ) => {
+
+	if ( ! event.persisted ) app.dispose();
+
+} );

@@ -137,5 +137,46 @@ async def test_passwords_and_tokens_never_reach_the_log(caplog: pytest.LogCaptur
     text = "\n".join(r.getMessage() for r in caplog.records)
     assert "logged in" in text or "subscri" in text, "the log should say what happened"
     assert "401" in text
-    for leak in (secret, "boschrexroth\"", "password=boschrexroth", "eyJ"):  # eyJ: a JWT
+    for leak in (secret, 'boschrexroth"', "password=boschrexroth", "eyJ"):  # eyJ: a JWT
         assert leak not in text
+
+
+class Exploding:
+    """Kinematics with a bug: every call raises."""
+
+    def link_poses(self, q: Any) -> Any:
+        raise RuntimeError("kinematics bug")
+
+    forward = link_poses
+
+    def params(self) -> dict[str, Any]:
+        return {}
+
+
+async def test_a_robot_whose_kinematics_raises_does_not_stop_the_others() -> None:
+    buggy = Robot(
+        name="buggy",
+        family="type12",
+        kinematics=Exploding(),  # type: ignore[arg-type]
+        joints=robot_on("x", Type12(), ("kin12_a0", "kin12_a1")).joints,
+        link_names=("L1",),
+    )
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url), [*default_cell(), buggy]) as base,
+    ):
+        first = await latest_frames(base, {"kin12", "buggy"})
+        later = await latest_frames(base, {"kin12", "buggy"})
+    assert first["buggy"]["ok"] is False and "kinematics bug" in first["buggy"]["error"]
+    assert first["kin12"]["ok"] is True and later["kin12"]["ok"] is True
+    assert later["kin12"]["seq"] > first["kin12"]["seq"], "the stream must go on"
+
+
+async def test_binary_messages_from_a_viewer_are_ignored() -> None:
+    async with running_mock() as (_, url), running_server(Settings(ctrlx_url=url)) as base:
+        async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(10):
+            await ws.send(b"\x00\x01 not text")
+            await ws.send("some text")
+            frames = 0
+            while frames < 20:
+                frames += json.loads(await ws.recv())["type"] == "frame"

@@ -90,6 +90,8 @@ async def test_bad_requests_get_422_and_unknown_robot_404() -> None:
         {"joints": [[0.1, float("nan")]]},  # NaN
         {},  # missing field
         {"joints": []},  # nothing to do
+        {"joints": [[0.1, 0.2], [0.3]]},  # ragged rows
+        {"joints": [[0.1, 0.2]] * 10_001},  # more rows than one request may ask for
     ]
     bad_ik = [
         {"tcp": [0, 0, 0]},  # wrong length
