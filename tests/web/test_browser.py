@@ -8,12 +8,6 @@ controller. A screenshot is saved to ``tests/artifacts/browser.png``.
 
 from __future__ import annotations
 
-import socket
-import subprocess
-import sys
-import time
-import urllib.error
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -22,68 +16,19 @@ from urllib.parse import urlsplit
 import pytest
 from playwright.sync_api import ConsoleMessage, Error, Request, WebSocket, sync_playwright
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, ROOT, free_port, server_process
+
 ARTIFACTS = ROOT / "tests" / "artifacts"
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--use-angle=swiftshader",
-    "--enable-unsafe-swiftshader",
-]
-HEALTH_TIMEOUT_S = 30.0
 LOAD_TIMEOUT_MS = 30_000
 NOT_NETWORK = ("data", "blob", "about")
 """URL schemes that never leave the page."""
 
 
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
-
-
-def _wait_healthy(url: str, proc: subprocess.Popen[bytes], log: Path) -> None:
-    """Poll ``GET /api/health`` until it answers 200; fail with the server log otherwise."""
-    deadline = time.monotonic() + HEALTH_TIMEOUT_S
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            pytest.fail(f"server exited with {proc.returncode}:\n{log.read_text()}")
-        try:
-            with urllib.request.urlopen(f"{url}/api/health", timeout=2) as response:
-                if response.status == 200:
-                    return
-        except (urllib.error.URLError, ConnectionError, TimeoutError):
-            pass
-        time.sleep(0.2)
-    pytest.fail(f"no 200 from {url}/api/health within {HEALTH_TIMEOUT_S} s:\n{log.read_text()}")
-
-
 @pytest.fixture
 def server_url(tmp_path: Path) -> Iterator[str]:
     """``python -m server`` on a free loopback port; always terminated afterwards."""
-    port = _free_port()
-    url = f"http://127.0.0.1:{port}"
-    log = tmp_path / "server.log"
-    with log.open("wb") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "server", "--host", "127.0.0.1", "--port", str(port)],
-            cwd=ROOT,
-            stdout=out,
-            stderr=subprocess.STDOUT,
-        )
-        try:
-            _wait_healthy(url, proc, log)
-            yield url
-        finally:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=10)
+    with server_process(free_port(), tmp_path / "server.log") as url:
+        yield url
 
 
 def _matrices(page: Any, names: list[str]) -> dict[str, list[list[float]]]:
