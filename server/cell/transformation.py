@@ -10,14 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import (
-    LBRiiwa,
-    Type12,
-    matrix_from_pose7,
-    pose7_from_matrix,
-    rpy_from_matrix,
-)
-from .axis_group import AxisGroupKinematics
+from ..kinematics import LBRiiwa, matrix_from_pose7, pose7_from_matrix, rpy_from_matrix
 from .robot import Array, BoolArray, Robot
 
 
@@ -81,18 +74,13 @@ def inverse(
     ref = np.zeros(n) if joints_ref is None else _joint_rows(robot, [joints_ref])[0]
     pose = matrix_from_pose7(pose7)
     kin = robot.kinematics
-    solutions: Array
-    within: BoolArray
-    if isinstance(kin, LBRiiwa):
+    best, ok = kin.inverse(pose, ref)
+    solutions: Array = best[None][: int(ok)]
+    within: BoolArray = np.ones(int(ok), dtype=bool)
+    if isinstance(kin, LBRiiwa) and (all_solutions or not ok):
+        # The eight analytic configurations, also to tell "outside the limits" from "out of reach".
         found = kin.inverse_all(pose, ref[2])
         solutions, within = found.q[found.reached], found.within_limits[found.reached]
-        best, ok = kin.inverse(pose, ref)
-    elif isinstance(kin, Type12 | AxisGroupKinematics):
-        best, ok = kin.inverse(pose) if isinstance(kin, Type12) else kin.inverse(pose, ref)
-        found_one = bool(ok)
-        solutions, within = best[None][: int(found_one)], np.ones(int(found_one), dtype=bool)
-    else:
-        raise TransformInputError(f"{robot.name}: no inverse for family {robot.family}")
     if not bool(ok):
         error = "reached only outside the joint limits" if len(solutions) else "out of reach"
         return InverseResult(solutions.tolist(), within.tolist(), None, False, error)

@@ -144,8 +144,11 @@ class Type12:
         )
         return planar_poses(pivots, heading), ok
 
-    def inverse(self, pose: Array) -> tuple[Array, BoolArray]:
+    def inverse(self, pose: Array, q_ref: Array | None = None) -> tuple[Array, BoolArray]:
         """Joints ``(..., 2)`` (rad, in [-pi, pi)) putting the TCP at ``pose`` ``(..., 4, 4)``.
+
+        ``q_ref`` is accepted for a uniform interface and not used: the seed's
+        branch choices give one solution.
 
         Seed CartesianToAxes: T from circles (O, L1) and (TCP, L2) with the
         right-hand branch, E on the bar, W from circles (O, L5) and (E, L4)
