@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import ssl
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -323,6 +324,11 @@ def connection_error(base_url: str, exc: aiohttp.ClientError) -> DataLayerError:
         )
     if isinstance(exc, aiohttp.ClientSSLError):
         return DataLayerError(f"TLS handshake with {base_url} failed: {exc}")
+    if isinstance(exc, aiohttp.ClientConnectorError):
+        # aiohttp's own text names its internals; the OS error is what people can act on.
+        errno = exc.os_error.errno or 0  # negative: a resolver (gai) code, no strerror
+        reason = os.strerror(errno) if errno > 0 else exc.os_error.strerror or str(exc.os_error)
+        return DataLayerError(f"cannot reach {base_url}: {reason.lower()}")
     return DataLayerError(f"cannot reach {base_url}: {exc or type(exc).__name__}")
 
 
