@@ -27,6 +27,7 @@ from typing import Literal
 
 from .client import DataLayerClient
 from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update, decode_event
+from .pacing import Pacer
 from .problem import AuthError, DataLayerError, ProblemError, Unsupported
 
 log = logging.getLogger(__name__)
@@ -256,7 +257,7 @@ async def _poll(
     interruptions = _Interruptions(retry)
     how = "bulk reads" if use_bulk else "one GET per node"
     log.info("%s: polling %d nodes every %g s (%s)", client.base_url, len(nodes), period_s, how)
-    next_tick = time.monotonic()
+    pacer = Pacer(period_s)
     while True:
         try:
             sample = await (_read_bulk(client, nodes) if use_bulk else read_all(client, nodes))
@@ -269,11 +270,7 @@ async def _poll(
             continue
         interruptions.succeeded()
         yield sample
-        next_tick += period_s
-        delay = next_tick - time.monotonic()
-        if delay < -period_s:  # a whole period behind: skip ticks rather than burst
-            next_tick, delay = time.monotonic(), 0.0
-        await asyncio.sleep(max(delay, 0.0))  # a little late: catch up, keep the rate
+        await pacer.wait()
 
 
 async def _read_bulk(client: DataLayerClient, nodes: list[str]) -> Sample:

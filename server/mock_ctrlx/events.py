@@ -17,6 +17,7 @@ from urllib.parse import quote
 import orjson
 from aiohttp import web
 
+from ..ctrlx.pacing import Pacer
 from ..ctrlx.paths import encode_node_path
 from ..ctrlx.timestamps import filetime_from_unix
 from .nodes import NodeError
@@ -157,7 +158,7 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
     publisher = _Publisher(state, spec)
     publish_s = max(spec.publish_ms, MIN_PUBLISH_MS) / 1000
     keepalive_s = max(spec.keepalive_ms, MIN_PUBLISH_MS) / 1000
-    drops, last_write, next_tick = faults.drops, loop.time(), loop.time()
+    drops, last_write, pacer = faults.drops, loop.time(), Pacer(publish_s)
     state.open_streams += 1
     try:
         while not state.closing and faults.drops == drops:
@@ -176,11 +177,7 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
                     state.traffic.bytes_out += len(chunk)
                     await response.write(chunk)
                     last_write = now
-            next_tick += publish_s
-            delay = next_tick - loop.time()
-            if delay < -publish_s:  # a whole cycle behind: skip cycles rather than burst
-                next_tick, delay = loop.time(), 0.0
-            await asyncio.sleep(max(delay, 0.0))  # a little late: catch up, keep the rate
+            await pacer.wait()
         await response.write_eof()
     except ConnectionResetError:
         pass  # the client went away

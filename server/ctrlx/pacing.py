@@ -1,0 +1,26 @@
+"""Keeping a loop at a steady rate, used by the client's polling and the mock's publishing."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+
+class Pacer:
+    """Sleeps between iterations so that they start every ``period_s`` on average.
+
+    A little late, the next sleep is shorter so the rate holds; a whole
+    period behind, the missed ticks are skipped rather than run in a burst.
+    """
+
+    def __init__(self, period_s: float) -> None:
+        self.period_s = period_s
+        self._next = time.monotonic()
+
+    async def wait(self) -> None:
+        """Sleep until the next tick is due."""
+        self._next += self.period_s
+        delay = self._next - time.monotonic()
+        if delay < -self.period_s:
+            self._next, delay = time.monotonic(), 0.0
+        await asyncio.sleep(max(delay, 0.0))
