@@ -42,10 +42,11 @@ IK_TARGETS = 200
 WHY = {
     "fk_batch": "the result is 8 frames x 128 B = 102 MB per call against the flange's 12.8 MB, "
     "so page faults and memory traffic weigh more than the maths",
-    "fk_one": "one Python float expression per matrix entry and joint, plus building the array",
+    "fk_one": "one Python float expression per matrix entry and joint, plus building the array; "
+    "the figure moves with the load on these shared cores",
     "type12": "a third of the time is four libm sin/cos per configuration (NumPy does not "
-    "vectorise float64 sin/cos here), the rest ~25 elementwise passes of the seed's "
-    "circle intersection, kept bit-identical to the original arithmetic",
+    "vectorise float64 sin/cos here), the rest ~20 elementwise passes of the seed's "
+    "circle intersection; on these shared cores the figure moves by +-30 % from run to run",
     "ik_all": "about 100 NumPy passes over (10 000, 8) arrays, plus a forward check of all 80 000",
     "ik_success": "targets near singular or limit-bound configurations where no start converged",
     "ik_time": "each damped least-squares iteration is ~45 NumPy calls on 8 x 7 arrays "
