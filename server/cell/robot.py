@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Literal, Protocol
 
 import numpy as np
@@ -63,12 +64,12 @@ class Robot:
         tcp, ok_tcp = self.kinematics.forward(q)
         return links, tcp, ok & ok_tcp
 
-    @property
+    @cached_property
     def nodes(self) -> tuple[str, ...]:
         """Data-layer nodes of the joints, in joint order."""
         return tuple(j.node for j in self.joints)
 
-    @property
+    @cached_property
     def to_si(self) -> Array:
         """Per-joint factors turning data-layer values into SI units."""
         return np.array([UNIT_SCALE[j.source_unit] for j in self.joints])

@@ -135,10 +135,6 @@ class DataLayerClient:
             await self._session.close()
         self._session = None
 
-    async def login(self) -> None:
-        """Log in now, even if a token is held; raises AuthError on wrong credentials."""
-        await self.tokens.renew(stale=self.tokens.token.value if self.tokens.token else None)
-
     async def _fetch_token(self) -> str:
         body = {"name": self._credentials.user, "password": self._credentials.password}
         status, data = await self._send("POST", self.paths.token, json=body)

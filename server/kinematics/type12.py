@@ -106,12 +106,6 @@ class Type12:
         tcp_x, tcp_y = tx + (ex - tx) * scale, ty + (ey - ty) * scale
         return [tx, ty, wx, wy, ex, ey, tcp_x, tcp_y], ok
 
-    def _points(self, q: Array) -> tuple[Array, Array, Array, Array, BoolArray]:
-        """Points T, W, E and the TCP ``(..., 2)`` (m, base XY) for joints ``q`` (rad)."""
-        xy, ok = self._points_xy(q)
-        t, w, e, tcp = (np.stack(xy[i : i + 2], -1) for i in range(0, 8, 2))
-        return t, w, e, tcp, ok
-
     def forward(self, q: Array) -> tuple[Array, BoolArray]:
         """TCP poses ``(..., 4, 4)`` for joints ``q`` of shape ``(..., 2)`` (rad).
 

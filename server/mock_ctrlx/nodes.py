@@ -22,11 +22,6 @@ GROUPS = "motion/grp"
 PLC = "plc/app/Application/sym/PLC_PRG"
 
 ACTUAL, ACTUAL_POS, AXIS_CMD = "state/values/actual", "state/values/actual/pos", "cmd/pos-abs"
-NUMBER_TYPES = {
-    "double", "float", "float32", "float64", "int8", "int16", "int32", "int64",
-    "uint8", "uint16", "uint32", "uint64",
-}  # fmt: skip
-ARRAY_TYPES = {"arfloat64", "arfloat32", "ardouble", "arfloat"}
 
 
 class NodeError(Exception):
@@ -71,10 +66,6 @@ class NodeTree:
         """Add (or replace) a plain variable node, e.g. one with odd characters for tests."""
         self.variables[node.strip("/")] = {"type": type_, "value": value}
         self._reindex()
-
-    def exists(self, node: str) -> bool:
-        """True if ``node`` is in the tree (leaf or folder)."""
-        return node.strip("/") in self._children
 
     def read(self, node: str, positions: Mapping[str, float] | None = None) -> dict[str, Any]:
         """The Data body of ``node``; ``positions`` is a machine snapshot to read axes from."""
