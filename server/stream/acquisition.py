@@ -101,17 +101,18 @@ class Acquisition:
             values=None if errors else np.array(read, dtype=np.float64),
             error="; ".join(errors) if errors else None,
         )
+        bug: Exception | None = None
         try:
             message, ok, error = compute_frame(robot, robot_sample)
         except Exception as exc:  # one robot's bug must not stop the others
-            log.exception("robot %s: cannot compute the frame", robot.name)
+            bug = exc
             failed = RobotSample(robot_sample.seq, robot_sample.t_source, None, repr(exc))
             message, ok, error = compute_frame(robot, failed)
-        if self.health.mark_robot(robot.name, ok, error):
+        if self.health.mark_robot(robot.name, ok, error):  # log changes only, not every sample
             if ok:
                 log.info("robot %s: streaming", robot.name)
             else:
-                log.warning("robot %s: %s", robot.name, error)
+                log.warning("robot %s: %s", robot.name, error, exc_info=bug)
         self._hub.publish(f"frame:{robot.name}", message.decode())
 
     def _report_error(self, error: str) -> None:

@@ -80,5 +80,5 @@ def test_page_shows_a_controller_that_cannot_be_reached(browser: Browser, tmp_pa
             timeout=TIMEOUT_MS,
         )
         sources = page.locator("#sources").inner_text()
-    assert "error" in sources and "cannot reach" in sources
-    assert "cannot reach" in banner(page)
+        assert "error" in sources and "cannot reach" in sources
+        assert "cannot reach" in banner(page)
