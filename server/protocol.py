@@ -50,6 +50,8 @@ class SourceStatus(_Message):
     url: str
     state: Literal["connecting", "connected", "error"]
     error: str | None
+    warning: str | None = None
+    """A standing caveat that does not stop the stream, e.g. the device's clock is behind."""
     last_sample_age_s: float | None
 
 

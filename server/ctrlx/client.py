@@ -97,6 +97,8 @@ class DataLayerClient:
         self._session: aiohttp.ClientSession | None = None
         self.tokens = TokenManager(self._fetch_token)
         self.traffic = Traffic()
+        self.warning: str | None = None
+        """A standing caveat about the device (e.g. its clock), shown in health; never secret."""
         self.capabilities = Capabilities(
             bulk=None if self.paths.bulk else False,
             subscribe=None if self.paths.events else False,

@@ -37,7 +37,8 @@ class PollSettings:
     """How samples are fetched: ``subscribe`` (falls back to ``poll``), ``poll`` or ``get``."""
     keepalive_s: float = 1.0
     retry_min_s: float = 0.5
-    retry_max_s: float = 10.0
+    retry_max_s: float = 1.5
+    """Kept short: a device that behaves again must be streaming within 2 s."""
 
 
 class Acquisition:
@@ -121,5 +122,6 @@ class Acquisition:
             self._publish_status()
 
     def _publish_status(self) -> None:
+        self.health.warning = self._client.warning
         self._status_sent = time.monotonic()
         self._hub.publish(f"status:{self.health.name}", self.health.status_message())

@@ -27,6 +27,7 @@ class SourceHealth:
     url: str
     state: str = "connecting"
     error: str | None = None
+    warning: str | None = None
     last_sample: float | None = None
     """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
@@ -60,6 +61,7 @@ class SourceHealth:
             url=self.url,
             state=self.state,  # type: ignore[arg-type]
             error=self.error,
+            warning=self.warning,
             last_sample_age_s=age,
         )
 
