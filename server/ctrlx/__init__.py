@@ -1,9 +1,10 @@
 """Client for the ctrlX CORE REST API: identity manager login and data-layer reads."""
 
-from .auth import API_PATHS, ApiVersion, Token, TokenManager
+from .auth import API_PATHS, ApiVersion, LoginBackoff, Token, TokenManager
+from .checks import check_base_url
 from .client import BulkRead, Credentials, DataLayerClient, Traffic
 from .events import SseEvent, SseParser, SubscriptionSettings
-from .follow import MODES, Mode, RetryPolicy, Sample, follow
+from .follow import MODES, REPROBE_S, Mode, RetryPolicy, Sample, follow
 from .paths import encode_node_path
 from .problem import (
     AuthError,
@@ -20,6 +21,7 @@ from .tls import client_ssl
 __all__ = [
     "API_PATHS",
     "MODES",
+    "REPROBE_S",
     "ApiVersion",
     "AuthError",
     "BadValue",
@@ -27,6 +29,7 @@ __all__ = [
     "Credentials",
     "DataLayerClient",
     "DataLayerError",
+    "LoginBackoff",
     "Mode",
     "NodeNotFound",
     "ProblemError",
@@ -40,6 +43,7 @@ __all__ = [
     "TokenManager",
     "Traffic",
     "Unsupported",
+    "check_base_url",
     "client_ssl",
     "encode_node_path",
     "filetime_from_unix",

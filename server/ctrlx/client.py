@@ -5,26 +5,20 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import os
 import ssl
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import aiohttp
-import orjson
 
 from .auth import API_PATHS, ApiPaths, ApiVersion, TokenManager
+from .bodies import NOT_JSON, Answer, decode, read_bounded
+from .connection import connection_error
 from .paths import encode_node_path
-from .problem import (
-    DataLayerError,
-    ProblemError,
-    Unsupported,
-    problem_for_result,
-    problem_for_status,
-)
-from .timestamps import parse_filetime
-from .values import number_from_data, numbers_from_data
+from .problem import DataLayerError, ProblemError, Unsupported, problem_for_status
+from .redact import Redactor
+from .values import BulkRead, bulk_values, number_from_data, numbers_from_data
 
 log = logging.getLogger(__name__)
 
@@ -54,28 +48,20 @@ class Traffic:
 
 @dataclass
 class Capabilities:
-    """Services the server turned out to offer (None: not tried yet)."""
+    """Services the server turned out to offer (None: not tried yet, or to be tried again)."""
 
     bulk: bool | None = None
     subscribe: bool | None = None
 
 
-@dataclass(frozen=True)
-class BulkRead:
-    """Values of one bulk read, in request order, and when the data layer sampled them."""
-
-    t_source: float | None
-    """Unix time from the answer's FILETIME stamps (the newest); None if it had none."""
-    values: dict[str, float | Exception]
-
-
 class DataLayerClient:
     """One logged-in session with a ctrlX device (or the mock).
 
-    Logs in lazily and again shortly before the token expires, sends
+    Logs in lazily and again shortly before the token runs out, sends
     ``Authorization: Bearer``, retries once after a 401 with a fresh token, and
     revokes the token on ``close()``. ``api="v1"`` speaks the older firmware's
-    paths, which offer neither bulk reads nor subscriptions.
+    paths, which offer neither bulk reads nor subscriptions. Whatever the
+    device answers, no password or token text reaches an error or a log line.
     """
 
     def __init__(
@@ -95,10 +81,11 @@ class DataLayerClient:
         self._ssl = ssl_context
         self._timeout = aiohttp.ClientTimeout(total=timeout_s)
         self._session: aiohttp.ClientSession | None = None
+        self.redact = Redactor(credentials.password)
         self.tokens = TokenManager(self._fetch_token)
         self.traffic = Traffic()
-        self.warning: str | None = None
-        """A standing caveat about the device (e.g. its clock), shown in health; never secret."""
+        self.notes: dict[str, str] = {}
+        """Standing caveats by topic (a refused service, ...); ``warning`` joins them."""
         self.capabilities = Capabilities(
             bulk=None if self.paths.bulk else False,
             subscribe=None if self.paths.events else False,
@@ -113,6 +100,26 @@ class DataLayerClient:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
+
+    @property
+    def warning(self) -> str | None:
+        """Standing caveats about the device (its clock, refused services), for health.
+
+        Never secret. Assigning sets a caveat of the caller's own (e.g. plain http).
+        """
+        parts = [self.tokens.warning, *self.notes.values()]
+        return "; ".join(p for p in parts if p) or None
+
+    @warning.setter
+    def warning(self, text: str | None) -> None:
+        self.note("setting", text)
+
+    def note(self, topic: str, text: str | None) -> None:
+        """Set (or with None clear) the standing caveat about ``topic``."""
+        if text:
+            self.notes[topic] = text
+        else:
+            self.notes.pop(topic, None)
 
     @property
     def requests(self) -> int:
@@ -132,56 +139,100 @@ class DataLayerClient:
                 async with asyncio.timeout(min(self.timeout_s, 2.0)):
                     await self._send("DELETE", self.paths.token, token=token)
             except (DataLayerError, TimeoutError) as exc:
-                log.debug("logout from %s failed: %s", self.base_url, exc)
+                log.debug("logout from %s failed: %s", self.base_url, self.redact.text(str(exc)))
         if self._session is not None:
             await self._session.close()
         self._session = None
 
     async def _fetch_token(self) -> str:
         body = {"name": self._credentials.user, "password": self._credentials.password}
-        status, data = await self._send("POST", self.paths.token, json=body)
-        if status not in (200, 201) or not isinstance(data, dict) or "access_token" not in data:
-            raise problem_for_status(status, data, "login failed")
-        # Renewals happen every token lifetime; only the first login is news.
-        level = logging.INFO if self.tokens.logins == 0 else logging.DEBUG
-        log.log(level, "logged in to %s as %s", self.base_url, self._credentials.user)
-        return str(data["access_token"])
+        path = self.paths.token
+        try:
+            answer = await self._send("POST", path, json=body)
+            data = answer.data
+            token = data.get("access_token") if isinstance(data, dict) else None
+            if isinstance(token, str):
+                self.redact.add(token)  # before any message could quote it
+            if answer.status in (200, 201) and isinstance(token, str):
+                if not _sendable(token):
+                    raise DataLayerError(f"login at {path}: the token cannot be sent as a header")
+                # Renewals happen every token lifetime; only the first login is news.
+                level = logging.INFO if self.tokens.logins == 0 else logging.DEBUG
+                log.log(level, "logged in to %s as %s", self.base_url, self._credentials.user)
+                return token
+            if answer.status < 300:
+                # Never quote the body: it may be the token itself, or our password echoed.
+                raise DataLayerError(
+                    f"login at {path} answered {answer.status} ({answer.describe()}) "
+                    "instead of a JSON object with an access_token"
+                )
+            self._check(f"POST {path}", answer, "login failed")
+            raise AssertionError("unreachable")
+        except DataLayerError as exc:
+            raise self.redact.error(exc) from None
 
     async def request(self, method: str, path: str, **kwargs: Any) -> Any:
         """Send an authenticated request; returns the decoded JSON body or raises ProblemError."""
-        token = await self.tokens.current()
-        status, data = await self._send(method, path, token=token, **kwargs)
-        if status == 401:
-            token = await self.tokens.renew(stale=token)
-            status, data = await self._send(method, path, token=token, **kwargs)
-        if status >= 400:
-            raise problem_for_status(status, data, f"{method} {path} failed")
-        return data
+        try:
+            token = await self.tokens.current()
+            answer = await self._send(method, path, token=token, **kwargs)
+            if answer.status == 401:
+                token = await self.tokens.renew(stale=token, rejected=True)
+                answer = await self._send(method, path, token=token, **kwargs)
+            if answer.status != 401:
+                self.tokens.accepted()
+            self._check(f"{method} {path}", answer, f"{method} {path} failed")
+        except DataLayerError as exc:
+            raise self.redact.error(exc) from None
+        return answer.data
+
+    def _check(self, what: str, answer: Answer, failed: str) -> None:
+        """Raise the error an answer that is no usable JSON means; summaries, never bodies."""
+        if answer.status >= 400:
+            data = answer.data
+            if isinstance(data, dict) and ("title" in data or "detail" in data):
+                raise problem_for_status(answer.status, data, failed)
+            summary = f"{answer.reason or 'error'}; answered {answer.describe()}"
+            raise problem_for_status(answer.status, summary, failed)
+        if 300 <= answer.status < 400:
+            where = (answer.location or "elsewhere").split("?", 1)[0]
+            raise DataLayerError(
+                f"{what}: redirected ({answer.status}) to {where}; give linkview the final URL"
+            )
+        if answer.data is NOT_JSON:
+            raise DataLayerError(
+                f"{what}: answered {answer.describe()}; is {self.base_url} a ctrlX CORE?"
+            )
 
     async def _send(
         self, method: str, path: str, *, token: str | None = None, **kwargs: Any
-    ) -> tuple[int, Any]:
+    ) -> Answer:
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         self.traffic.requests += 1
         with self._transport_errors(method, path):
             async with self._http().request(
-                method, self.base_url + path, headers=headers, ssl=self._ssl, **kwargs
+                method,
+                self.base_url + path,
+                headers=headers,
+                ssl=self._ssl,
+                allow_redirects=False,  # a redirect would carry the token to another host
+                **kwargs,
             ) as resp:
-                raw = await resp.read()
+                raw = await read_bounded(resp, f"{method} {path}")
                 self.traffic.bytes_in += len(raw)
-                return resp.status, _decode(resp.content_type, raw)
+                return _answer(resp, raw)
 
     @contextlib.contextmanager
     def _transport_errors(self, method: str, path: str) -> Iterator[None]:
         """Turn timeouts and connection failures into DataLayerError naming the device."""
         try:
             yield
-        except TimeoutError as exc:
+        except TimeoutError:
             raise DataLayerError(
                 f"{method} {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
-            ) from exc
+            ) from None
         except aiohttp.ClientError as exc:
-            raise connection_error(self.base_url, exc) from exc
+            raise connection_error(self.base_url, exc) from None
 
     async def open_stream(
         self, path: str, *, params: dict[str, str] | None = None
@@ -191,6 +242,14 @@ class DataLayerClient:
         Only connecting and the response head are bounded by the request
         timeout; the stream itself is watched by its reader (keepalive).
         """
+        try:
+            return await self._open_stream(path, params)
+        except DataLayerError as exc:
+            raise self.redact.error(exc) from None
+
+    async def _open_stream(
+        self, path: str, params: dict[str, str] | None
+    ) -> aiohttp.ClientResponse:
         timeout = aiohttp.ClientTimeout(total=None, sock_connect=self.timeout_s, sock_read=None)
         token = await self.tokens.current()
         for attempt in (1, 2):
@@ -206,22 +265,32 @@ class DataLayerClient:
                         },
                         ssl=self._ssl,
                         timeout=timeout,
+                        allow_redirects=False,
                     )
             if resp.status == 200 and resp.content_type == "text/event-stream":
+                self.tokens.accepted()
                 return resp
             try:
-                raw = await resp.read()
-            except aiohttp.ClientError:
+                with self._transport_errors("GET", path):
+                    async with asyncio.timeout(self.timeout_s):
+                        raw = await read_bounded(resp, f"GET {path}")
+            except DataLayerError:
                 raw = b""
             finally:
                 resp.release()
             self.traffic.bytes_in += len(raw)
+            answer = _answer(resp, raw)
             if resp.status == 401 and attempt == 1:
-                token = await self.tokens.renew(stale=token)
+                token = await self.tokens.renew(stale=token, rejected=True)
                 continue
+            if resp.status != 401:
+                self.tokens.accepted()
             if resp.status in REFUSED or resp.status == 200:
-                raise Unsupported(f"GET {path}: no event stream ({resp.status})")
-            raise problem_for_status(resp.status, _decode(resp.content_type, raw), "GET failed")
+                raise Unsupported(
+                    f"GET {path}: no event stream ({resp.status}, {answer.describe()})"
+                )
+            self._check(f"GET {path}", answer, "GET failed")
+            raise DataLayerError(f"GET {path}: answered {resp.status} instead of an event stream")
         raise AssertionError("unreachable")
 
     # -- nodes ---------------------------------------------------------------
@@ -236,11 +305,19 @@ class DataLayerClient:
 
     async def read_number(self, node: str) -> float:
         """Read one numeric node; raises NodeNotFound, BadValue or another DataLayerError."""
-        return number_from_data(node, await self.read(node))
+        body = await self.read(node)
+        try:
+            return number_from_data(node, body)
+        except DataLayerError as exc:
+            raise self.redact.error(exc) from None
 
     async def read_numbers(self, node: str) -> list[float]:
         """Read one float-array node (``arfloat64`` and kin)."""
-        return numbers_from_data(node, await self.read(node))
+        body = await self.read(node)
+        try:
+            return numbers_from_data(node, body)
+        except DataLayerError as exc:
+            raise self.redact.error(exc) from None
 
     async def browse(self, node: str) -> list[str]:
         """Names of the children of ``node`` (``?type=browse``)."""
@@ -273,61 +350,30 @@ class DataLayerClient:
         except ProblemError as exc:
             if exc.status in REFUSED:
                 self.capabilities.bulk = False
-                raise Unsupported(f"bulk read refused: {exc}") from exc
+                raise Unsupported(f"bulk read refused: {exc}") from None
             raise
         self.capabilities.bulk = True
-        return _bulk_values(nodes, entries)
+        read = bulk_values(nodes, entries)
+        for value in read.values.values():
+            if isinstance(value, Exception):
+                self.redact.error(value)
+        return read
 
 
-def _bulk_values(nodes: list[str], entries: Any) -> BulkRead:
-    if not isinstance(entries, list) or len(entries) != len(nodes):
-        raise DataLayerError(f"bulk read answered {type(entries).__name__}, not {len(nodes)} items")
-    values: dict[str, float | Exception] = {}
-    stamps: list[float] = []
-    for node, entry in zip(nodes, entries, strict=True):
-        if not isinstance(entry, dict):
-            values[node] = DataLayerError(f"{node}: bulk answer item is not an object")
-            continue
-        stamp = parse_filetime(entry.get("timestamp"))
-        if stamp is not None:
-            stamps.append(stamp)
-        result = str(entry.get("result", "DL_OK"))
-        if result != "DL_OK" or entry.get("type") == "error":
-            values[node] = problem_for_result(node, result, entry.get("value"))
-            continue
-        try:
-            values[node] = number_from_data(node, entry)
-        except DataLayerError as exc:
-            values[node] = exc
-    return BulkRead(max(stamps) if stamps else None, values)
+def _answer(resp: aiohttp.ClientResponse, raw: bytes) -> Answer:
+    return Answer(
+        status=resp.status,
+        reason=resp.reason or "",
+        content_type=resp.content_type,
+        size=len(raw),
+        data=decode(resp.content_type, raw),
+        location=resp.headers.get("Location"),
+    )
 
 
-def _decode(content_type: str, raw: bytes) -> Any:
-    if not raw:
-        return None
-    if content_type == "application/json" or content_type.endswith("+json"):
-        try:
-            return orjson.loads(raw)
-        except orjson.JSONDecodeError:
-            pass
-    return raw.decode("utf-8", "replace")
-
-
-def connection_error(base_url: str, exc: aiohttp.ClientError) -> DataLayerError:
-    """A readable error for a failed connection; TLS trouble says how to fix it."""
-    if isinstance(exc, aiohttp.ClientConnectorCertificateError):
-        return DataLayerError(
-            f"cannot verify the TLS certificate of {base_url} ({exc.certificate_error}); "
-            "pass the device's certificate with --ctrlx-ca FILE"
-        )
-    if isinstance(exc, aiohttp.ClientSSLError):
-        return DataLayerError(f"TLS handshake with {base_url} failed: {exc}")
-    if isinstance(exc, aiohttp.ClientConnectorError):
-        # aiohttp's own text names its internals; the OS error is what people can act on.
-        errno = exc.os_error.errno or 0  # negative: a resolver (gai) code, no strerror
-        reason = os.strerror(errno) if errno > 0 else exc.os_error.strerror or str(exc.os_error)
-        return DataLayerError(f"cannot reach {base_url}: {reason.lower()}")
-    return DataLayerError(f"cannot reach {base_url}: {exc or type(exc).__name__}")
+def _sendable(token: str) -> bool:
+    """True for a token that fits an HTTP header (RFC 6750 b64token, plus what JWTs use)."""
+    return bool(token) and token.isascii() and token.isprintable() and " " not in token
 
 
 __all__ = ["BulkRead", "Capabilities", "Credentials", "DataLayerClient", "Traffic"]

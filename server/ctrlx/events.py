@@ -5,14 +5,16 @@ from __future__ import annotations
 import asyncio
 import logging
 import secrets
+import time
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import unquote
 
 import aiohttp
-import orjson
 
+from .bodies import loads
 from .client import REFUSED, DataLayerClient
+from .connection import connection_error
 from .problem import (
     DataLayerError,
     ProblemError,
@@ -25,6 +27,15 @@ from .values import number_from_data
 
 log = logging.getLogger(__name__)
 
+MAX_LINE_BYTES = 64 * 1024
+"""Longest SSE line we hold; an update line of one node is ~200 bytes."""
+MAX_EVENT_BYTES = 1024 * 1024
+"""Largest event (its data lines together) we hold."""
+
+
+class InvalidEvent(StreamEnded):
+    """One event we cannot use (malformed JSON, an update naming no node); the stream may go on."""
+
 
 @dataclass(frozen=True)
 class SseEvent:
@@ -36,13 +47,21 @@ class SseEvent:
 
 
 class SseParser:
-    """Incremental ``text/event-stream`` parser (WHATWG rules: fields, comments, blank lines)."""
+    """Incremental ``text/event-stream`` parser (WHATWG rules: fields, comments, blank lines).
 
-    def __init__(self) -> None:
+    Bounded: a line longer than ``max_line`` bytes or an event larger than
+    ``max_event`` raises StreamEnded, since a broken device may otherwise send
+    a line (or data lines) without end and we would hold all of it.
+    """
+
+    def __init__(self, max_line: int = MAX_LINE_BYTES, max_event: int = MAX_EVENT_BYTES) -> None:
+        self.max_line = max_line
+        self.max_event = max_event
         self._buffer = b""
         self._event = ""
         self._id: str | None = None
         self._data: list[str] = []
+        self._size = 0
 
     @property
     def pending(self) -> bool:
@@ -55,16 +74,25 @@ class SseParser:
         events: list[SseEvent] = []
         while (cut := _line_end(data, pos)) is not None:
             end, after = cut
+            if end - pos > self.max_line:
+                raise self._too_long()
             self._line(data[pos:end].decode("utf-8", "replace"), events)
             pos = after
         self._buffer = data[pos:]
+        if len(self._buffer) > self.max_line:
+            raise self._too_long()
         return events
+
+    def _too_long(self) -> StreamEnded:
+        return StreamEnded(
+            f"event stream sent a line longer than {self.max_line // 1024} KiB; dropped"
+        )
 
     def _line(self, line: str, events: list[SseEvent]) -> None:
         if not line:
             if self._data:
                 events.append(SseEvent(self._event or "message", self._id, "\n".join(self._data)))
-            self._event, self._data = "", []
+            self._event, self._data, self._size = "", [], 0
             return
         if line.startswith(":"):
             return  # a comment; some servers send them as heartbeats
@@ -73,6 +101,12 @@ class SseParser:
         if name == "event":
             self._event = value.strip()
         elif name == "data":
+            self._size += len(value) + 1
+            if self._size > self.max_event:
+                raise StreamEnded(
+                    f"event stream sent an event larger than {self.max_event // 1024 // 1024} MiB "
+                    "(data lines without the blank line that ends an event); dropped"
+                )
             self._data.append(value)
         elif name == "id":
             self._id = value.strip()
@@ -130,14 +164,15 @@ def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | Non
     """Turn one SSE event into an Update or Keepalive; None for events we do not use.
 
     An ``error`` event that names no node is a failure of the whole stream and
-    is raised.
+    is raised; an event we cannot read raises InvalidEvent. NaN and Infinity
+    literals are read, so they spoil only the node that carries them.
     """
     if event.event not in ("update", "keepalive", "error"):
         return None
     try:
-        data = orjson.loads(event.data) if event.data.strip() else {}
-    except orjson.JSONDecodeError as exc:
-        raise StreamEnded(f"event stream sent malformed JSON: {event.data[:80]!r}") from exc
+        data = loads(event.data) if event.data.strip() else {}
+    except ValueError:
+        raise InvalidEvent(f"{event.event} event with malformed JSON {event.data[:40]!r}") from None
     if not isinstance(data, dict):
         data = {}
     t_source = parse_filetime(data.get("timestamp"))
@@ -153,7 +188,7 @@ def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | Non
             raise problem
         return Update(node, t_source, problem)
     if not isinstance(node, str):
-        raise StreamEnded("update event without a node")
+        raise InvalidEvent("update event without a node")
     value: float | Exception
     try:
         value = number_from_data(node, data)
@@ -170,7 +205,12 @@ def _node_of_instance(problem: ProblemError, nodes_prefix: str) -> str | None:
 
 
 class EventStream:
-    """One open event stream: chunks of decoded events, and a watchdog on silence."""
+    """One open event stream: decoded events, and a watchdog on silence and junk.
+
+    The stream counts as dead when no valid event (update, keepalive, node
+    error) arrived for ``dead_after_s``, whether it sent nothing or only bytes
+    we cannot use.
+    """
 
     def __init__(
         self, response: aiohttp.ClientResponse, client: DataLayerClient, dead_after_s: float
@@ -179,29 +219,62 @@ class EventStream:
         self._client = client
         self._parser = SseParser()
         self.dead_after_s = dead_after_s
+        self._alive_at = time.monotonic()
+        self._junk_bytes = 0
+        self._junk: str | None = None
 
-    async def next_chunk(self, timeout_s: float) -> list[SseEvent] | None:
-        """Events of the next network chunk; None if ``timeout_s`` passed first.
+    async def next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
+        """The usable events of the next network chunk; None if ``timeout_s`` passed first.
 
-        Raises StreamEnded when the server closes the stream or stays silent
-        (no update, no keepalive) longer than ``dead_after_s``.
+        Raises StreamEnded when the server closes the stream, or sends no
+        valid event for ``dead_after_s``, or breaks the parser's bounds.
         """
-        limit = min(timeout_s, self.dead_after_s)
         try:
-            async with asyncio.timeout(max(limit, 0.0)):
+            return await self._next_items(timeout_s)
+        except DataLayerError as exc:
+            raise self._client.redact.error(exc) from None
+
+    async def _next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
+        dead_at = self._alive_at + self.dead_after_s
+        try:
+            async with asyncio.timeout(max(min(timeout_s, dead_at - time.monotonic()), 0.0)):
                 chunk = await self._response.content.readany()
         except TimeoutError:
-            if limit >= self.dead_after_s:
-                raise StreamEnded(
-                    f"event stream silent for {self.dead_after_s:g} s (no keepalive)"
-                ) from None
+            if time.monotonic() >= dead_at:
+                raise StreamEnded(self._why_dead()) from None
             return None
         except aiohttp.ClientError as exc:
-            raise StreamEnded(f"event stream broke: {exc or type(exc).__name__}") from exc
+            reason = connection_error(self._client.base_url, exc)
+            raise StreamEnded(f"event stream broke: {reason}") from None
         if not chunk:
             raise StreamEnded("the server closed the event stream")
         self._client.traffic.bytes_in += len(chunk)
-        return self._parser.feed(chunk)
+        self._junk_bytes += len(chunk)
+        items: list[Update | Keepalive] = []
+        for event in self._parser.feed(chunk):
+            try:
+                item = decode_event(event, self._client.paths.nodes)
+            except InvalidEvent as exc:
+                self._junk = str(exc)
+                continue
+            if item is not None:
+                if isinstance(item, Update) and isinstance(item.value, Exception):
+                    self._client.redact.error(item.value)
+                items.append(item)
+        if items:
+            self._alive_at, self._junk_bytes, self._junk = time.monotonic(), 0, None
+        elif time.monotonic() >= dead_at:
+            raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
+        return items
+
+    def _why_dead(self) -> str:
+        if self._junk_bytes == 0:
+            return f"event stream silent for {self.dead_after_s:g} s (no keepalive)"
+        last = f" (last: {self._junk})" if self._junk else ""
+        return (
+            f"event stream sent {self._junk_bytes} bytes but no valid event "
+            f"for {self.dead_after_s:g} s{last}"
+        )
 
     @property
     def mid_event(self) -> bool:

@@ -12,6 +12,10 @@ Short interruptions of a source that was working (a stream that closes, a
 token that expires, a request that fails) are ridden out by reconnecting with
 exponential backoff and jitter; what lasts longer, or a source that never
 worked, is raised as DataLayerError for the caller to report and retry.
+
+A fallback is no verdict: a 404 may come from a device that is still starting
+up, so the refused path is tried again every ``reprobe_s`` (60 s), and the
+fallback meanwhile shows as a standing caveat in ``client.warning``.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from .client import DataLayerClient
-from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update, decode_event
+from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update
 from .pacing import Pacer
 from .problem import AuthError, DataLayerError, ProblemError, Unsupported
 
@@ -49,14 +53,19 @@ class Sample:
     values: dict[str, float | Exception]
 
 
+REPROBE_S = 60.0
+"""How often a refused better data path (subscriptions, bulk reads) is tried again."""
+
+
 @dataclass(frozen=True)
 class RetryPolicy:
     """How to ride out interruptions: delays grow from ``first_s`` to ``max_s``, with jitter."""
 
     first_s: float = 0.05
-    max_s: float = 2.0
-    give_up_s: float = 5.0
-    """Raise to the caller once a working source has failed for this long."""
+    max_s: float = 1.0
+    """Short, so a device that behaves again is streaming within 2 s."""
+    give_up_s: float = 3.0
+    """Raise to the caller (who shows the error) once a working source has failed this long."""
 
     def delay(self, attempt: int) -> float:
         """Seconds before reconnect ``attempt`` (0: at once, since most drops are one-offs)."""
@@ -74,16 +83,19 @@ def follow(
     *,
     keepalive_s: float = 1.0,
     retry: RetryPolicy = RetryPolicy(),
+    reprobe_s: float | None = None,
 ) -> AsyncGenerator[Sample, None]:
     """The samples of ``nodes``, about every ``period_s`` seconds, until cancelled.
 
     ``keepalive_s`` is the subscription's keepalive interval; a stream silent
-    for 2.5 times as long counts as dead. Raises DataLayerError when the
-    source is unusable (see the module docstring).
+    for 2.5 times as long counts as dead. A refused subscription or bulk
+    service is tried again every ``reprobe_s`` (default REPROBE_S). Raises
+    DataLayerError when the source is unusable (see the module docstring).
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
-    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry)
+    reprobe = REPROBE_S if reprobe_s is None else reprobe_s
+    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
 
 
 async def _follow(
@@ -93,16 +105,72 @@ async def _follow(
     mode: Mode,
     keepalive_s: float,
     retry: RetryPolicy,
+    reprobe_s: float,
 ) -> AsyncGenerator[Sample, None]:
-    if mode == "subscribe":
-        try:
-            async for sample in _subscribe(client, nodes, period_s, keepalive_s, retry):
+    interruptions = _Interruptions(retry)
+    # A firmware without the service (paths None) is no refusal: nothing to note or re-probe.
+    events = None
+    if mode == "subscribe" and client.paths.events is not None:
+        events = _Refusal(client, "subscriptions", "polling instead", reprobe_s)
+    bulk = None
+    if mode != "get" and client.paths.bulk is not None:
+        bulk = _Refusal(client, "bulk reads", "one GET per node instead", reprobe_s)
+    try:
+        while True:
+            if events is not None and events.due():
+                events.retry()
+                try:
+                    async for sample in _subscribe(
+                        client, nodes, period_s, keepalive_s, interruptions
+                    ):
+                        events.worked()
+                        yield sample
+                except Unsupported as exc:
+                    events.refused(exc)
+            async for sample in _poll(client, nodes, period_s, bulk, events, interruptions):
                 yield sample
-        except Unsupported as exc:
-            log.warning("%s: %s; polling with bulk reads instead", client.base_url, exc)
-        mode = "poll"
-    async for sample in _poll(client, nodes, period_s, mode == "poll", retry):
-        yield sample
+    except DataLayerError as exc:
+        raise client.redact.error(exc) from None
+
+
+class _Refusal:
+    """A better data path the device refused: when, the caveat it leaves, when to ask again."""
+
+    def __init__(self, client: DataLayerClient, what: str, instead: str, reprobe_s: float) -> None:
+        self._client = client
+        self._what = what
+        self._instead = instead
+        self._reprobe_s = reprobe_s
+        self._at: float | None = None
+
+    def due(self) -> bool:
+        """True when the path may be used: never refused, or time to try it again."""
+        return self._at is None or time.monotonic() - self._at >= self._reprobe_s
+
+    def retry(self) -> None:
+        """Forget the client's verdict so the next request asks the device again."""
+        if self._at is not None:
+            log.debug("%s: trying %s again", self._client.base_url, self._what)
+            if self._what == "subscriptions":
+                self._client.capabilities.subscribe = None
+            else:
+                self._client.capabilities.bulk = None
+
+    def refused(self, exc: DataLayerError) -> None:
+        """The device refused the path (again)."""
+        first = self._at is None
+        self._at = time.monotonic()
+        text = f"{self._what} refused ({exc}); {self._instead}, asking again every "
+        text += f"{self._reprobe_s:g} s"
+        self._client.note(self._what, text)
+        log.log(logging.WARNING if first else logging.DEBUG, "%s: %s", self._client.base_url, text)
+
+    def worked(self) -> None:
+        """The path works (again)."""
+        if self._at is not None:
+            self._at = None
+            self._client.note(self._what, None)
+            log.info("%s: %s work again", self._client.base_url, self._what)
 
 
 class _Interruptions:
@@ -177,7 +245,7 @@ async def _subscribe(
     nodes: list[str],
     period_s: float,
     keepalive_s: float,
-    retry: RetryPolicy,
+    interruptions: _Interruptions,
 ) -> AsyncIterator[Sample]:
     settings = SubscriptionSettings(
         publish_interval_ms=max(1, round(period_s * 1000)),
@@ -185,7 +253,6 @@ async def _subscribe(
         error_interval_ms=max(1, round(keepalive_s * 1000)),
     )
     subscription = Subscription(client, nodes, settings)
-    interruptions = _Interruptions(retry)
     latest = _Latest(nodes, grace_s=keepalive_s)
     stream: EventStream | None = None
     log.info(
@@ -199,18 +266,16 @@ async def _subscribe(
             try:
                 if stream is None:
                     stream = await subscription.open()
-                renew_at = client.tokens.renew_at
-                wait = math.inf if renew_at is None else renew_at - time.time()
-                if wait <= 0.0:
+                # Planned on our monotonic clock from the token's lifetime, never its exp.
+                wait = client.tokens.seconds_to_renewal()
+                if wait is not None and wait <= 0.0:
                     stream = await _hand_over(client, subscription, stream)
                     continue
-                events = await stream.next_chunk(wait)
-                if events is None:
+                items = await stream.next_items(math.inf if wait is None else wait)
+                if items is None:
                     continue
-                for event in events:
-                    item = decode_event(event, client.paths.nodes)
-                    if item is not None:
-                        latest.add(item)
+                for item in items:
+                    latest.add(item)
             except Unsupported:
                 raise
             except DataLayerError as exc:
@@ -251,23 +316,32 @@ async def _poll(
     client: DataLayerClient,
     nodes: list[str],
     period_s: float,
-    use_bulk: bool,
-    retry: RetryPolicy,
+    bulk: _Refusal | None,
+    events: _Refusal | None,
+    interruptions: _Interruptions,
 ) -> AsyncIterator[Sample]:
-    interruptions = _Interruptions(retry)
+    """Polls until the refused subscriptions are due to be tried again (if ever)."""
+    use_bulk = bulk is not None and bulk.due()
     how = "bulk reads" if use_bulk else "one GET per node"
     log.info("%s: polling %d nodes every %g s (%s)", client.base_url, len(nodes), period_s, how)
     pacer = Pacer(period_s)
-    while True:
+    while events is None or not events.due():
+        if bulk is not None and not use_bulk and bulk.due():
+            bulk.retry()
+            use_bulk = True
         try:
             sample = await (_read_bulk(client, nodes) if use_bulk else read_all(client, nodes))
         except Unsupported as exc:
-            log.warning("%s: %s; one GET per node instead", client.base_url, exc)
+            if bulk is None or not use_bulk:
+                raise
+            bulk.refused(exc)
             use_bulk = False
             continue
         except DataLayerError as exc:
             await interruptions.failed(exc)
             continue
+        if use_bulk and bulk is not None:
+            bulk.worked()
         interruptions.succeeded()
         yield sample
         await pacer.wait()

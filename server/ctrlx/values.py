@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
-from .problem import BadValue
+from .problem import BadValue, DataLayerError, problem_for_result
+from .timestamps import parse_filetime
 
 SCALAR_TYPES = frozenset(
     {
@@ -70,3 +72,36 @@ def _finite(node: str, value: Any) -> float:
     if not math.isfinite(number):
         raise BadValue(f"{node}: value {number} is not finite")
     return number
+
+
+@dataclass(frozen=True)
+class BulkRead:
+    """Values of one bulk read, in request order, and when the data layer sampled them."""
+
+    t_source: float | None
+    """Unix time from the answer's FILETIME stamps (the newest); None if it had none."""
+    values: dict[str, float | Exception]
+
+
+def bulk_values(nodes: list[str], entries: Any) -> BulkRead:
+    """The values of a bulk read answer; a node that failed holds its error."""
+    if not isinstance(entries, list) or len(entries) != len(nodes):
+        raise DataLayerError(f"bulk read answered {type(entries).__name__}, not {len(nodes)} items")
+    values: dict[str, float | Exception] = {}
+    stamps: list[float] = []
+    for node, entry in zip(nodes, entries, strict=True):
+        if not isinstance(entry, dict):
+            values[node] = DataLayerError(f"{node}: bulk answer item is not an object")
+            continue
+        stamp = parse_filetime(entry.get("timestamp"))
+        if stamp is not None:
+            stamps.append(stamp)
+        result = str(entry.get("result", "DL_OK"))
+        if result != "DL_OK" or entry.get("type") == "error":
+            values[node] = problem_for_result(node, result, entry.get("value"))
+            continue
+        try:
+            values[node] = number_from_data(node, entry)
+        except DataLayerError as exc:
+            values[node] = exc
+    return BulkRead(max(stamps) if stamps else None, values)

@@ -116,12 +116,37 @@ def token(**claims: float) -> str:
 
 
 def test_tokens_are_renewed_a_share_of_their_life_early_at_most_a_minute() -> None:
-    short = Token.from_jwt(token(iat=100.0, exp=102.0), now=0.0)
-    assert short.renew_at() == pytest.approx(101.6)
-    long = Token.from_jwt(token(iat=0.0, exp=3600.0), now=0.0)
+    # Planned on our monotonic clock from the moment of arrival (here 10.0), never from exp.
+    short = Token.from_jwt(token(iat=100.0, exp=102.0), wall=100.0, mono=10.0)
+    assert short.lifetime_s == 2.0
+    assert short.renew_at() == pytest.approx(11.6)
+    long = Token.from_jwt(token(iat=0.0, exp=3600.0), wall=0.0, mono=0.0)
     assert long.renew_at() == pytest.approx(3540.0)
-    assert Token.from_jwt("opaque", now=5.0).renew_at() is None
+    assert Token.from_jwt("opaque", wall=5.0, mono=5.0).renew_at() is None
     assert "eyJ" not in repr(short)
+
+
+def test_a_controller_clock_behind_ours_changes_nothing_but_a_warning() -> None:
+    # The device's clock is an hour behind: the token has "expired" by our wall clock.
+    behind = Token.from_jwt(token(iat=1000.0, exp=1002.0), wall=4600.0, mono=7.0)
+    assert behind.renew_at() == pytest.approx(8.6)
+    assert "about 1.0 h behind" in (behind.clock_warning() or "")
+    ahead = Token.from_jwt(token(iat=9000.0, exp=9002.0), wall=4600.0, mono=7.0)
+    assert ahead.renew_at() == pytest.approx(8.6) and ahead.clock_warning() is None
+
+
+def test_tokens_without_a_usable_lifetime_are_renewed_only_on_rejection() -> None:
+    backwards = Token.from_jwt(token(iat=5000.0, exp=1000.0), wall=5000.0, mono=0.0)
+    assert backwards.lifetime_s is None and backwards.renew_at() is None
+    assert "expire before they are issued" in (backwards.clock_warning() or "")
+    assert Token.from_jwt(token(iat=5000.0), wall=5000.0, mono=0.0).renew_at() is None
+    # No iat: our arrival time stands in for it.
+    assert Token.from_jwt(token(exp=5010.0), wall=5000.0, mono=0.0).lifetime_s == 10.0
+
+
+def test_tiny_lifetimes_are_renewed_no_sooner_than_half_a_second() -> None:
+    tiny = Token.from_jwt(token(iat=0.0, exp=0.01), wall=0.0, mono=3.0)
+    assert tiny.renew_at() == pytest.approx(3.5)
 
 
 def test_secrets_stay_out_of_reprs() -> None:
