@@ -350,6 +350,8 @@ class Subscription:
         if not self._created or events is None:
             return
         self._created = False
+        if self._client.tokens.due():
+            return  # not worth a login (maybe a failing one): unused subscriptions expire
         try:
             async with asyncio.timeout(2.0):
                 await self._client.request("DELETE", f"{events}/{self.id}")
