@@ -8,6 +8,7 @@ from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..cell import Robot, transformation
+from ..runtime import MoveError
 from .routes import runtime_of
 
 router = APIRouter(prefix="/api/robots")
@@ -32,6 +33,13 @@ class InverseRequest(BaseModel):
     tcp: Annotated[list[Finite], Field(min_length=7, max_length=7)]
     joints_ref: JointRow | None = None
     all: bool = False
+
+
+class MoveRequest(BaseModel):
+    """Target joints in hello order (rad or m)."""
+
+    model_config = ConfigDict(extra="forbid")
+    joints: JointRow
 
 
 def _robot(request: Request, name: str) -> Robot:
@@ -61,3 +69,14 @@ def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]
 def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
     """Joint solutions for a TCP pose; ``best`` is nearest ``joints_ref``."""
     return _run(transformation.inverse, _robot(request, name), body.tcp, body.joints_ref, body.all)
+
+
+@router.post("/{name}/move", status_code=202)
+async def move(name: str, body: MoveRequest, request: Request) -> dict[str, Any]:
+    """Command a synchronised move to ``joints``; 403 where moves are not allowed."""
+    robot = _robot(request, name)
+    try:
+        await runtime_of(request).move(robot, body.joints)
+    except MoveError as exc:
+        raise HTTPException(status_code=exc.status, detail=str(exc)) from exc
+    return {"ok": True, "robot": name, "joints": body.joints}

@@ -7,10 +7,9 @@ from typing import Any
 import aiohttp
 import numpy as np
 
-from server.cell import default_cell
 from server.config import Settings
 from server.kinematics import matrix_from_pose7, matrix_from_rpy
-from tests.conftest import running_mock, running_server
+from tests.conftest import demo_cell, running_mock, running_server
 
 
 def sample_joints(name: str, rng: np.random.Generator, count: int) -> np.ndarray:
@@ -35,7 +34,7 @@ async def test_ik_of_fk_returns_to_the_same_tcp_for_every_robot() -> None:
         running_server(Settings(ctrlx_url=url)) as base,
         aiohttp.ClientSession() as http,
     ):
-        for robot in default_cell():
+        for robot in demo_cell().robots:
             api = f"{base}/api/robots/{robot.name}"
             q = sample_joints(robot.name, rng, 5)
             status, fk = await post(http, api + "/fk", {"joints": q.tolist()})
@@ -64,7 +63,7 @@ def expected_pose(tcp7: list[float]) -> np.ndarray:
 
 async def test_iiwa_ik_lists_the_starting_configuration_among_all_eight() -> None:
     rng = np.random.default_rng(3)
-    robot = next(r for r in default_cell() if r.name == "iiwa7")
+    robot = next(r for r in demo_cell().robots if r.name == "iiwa7")
     q = sample_joints("iiwa7", rng, 1)[0]
     _, tcp, _ = robot.poses(q)
     async with (
