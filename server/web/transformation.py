@@ -17,6 +17,8 @@ Finite = Annotated[float, Field(allow_inf_nan=False)]
 JointRow = Annotated[list[Finite], Field(min_length=1, max_length=16)]
 MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
+MAX_LINK_ROWS = 64
+"""Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
 
 
 class ForwardRequest(BaseModel):
@@ -24,6 +26,8 @@ class ForwardRequest(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     joints: list[JointRow] = Field(min_length=1, max_length=MAX_ROWS)
+    links: bool = False
+    """Also return every link's pose per row (for drawing a configuration)."""
 
 
 class InverseRequest(BaseModel):
@@ -62,7 +66,9 @@ def _run(call: Any, *args: Any) -> dict[str, Any]:
 @router.post("/{name}/fk")
 def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
     """TCP pose and roll-pitch-yaw for each joint row."""
-    return _run(transformation.forward, _robot(request, name), body.joints)
+    if body.links and len(body.joints) > MAX_LINK_ROWS:
+        raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
+    return _run(transformation.forward, _robot(request, name), body.joints, body.links)
 
 
 @router.post("/{name}/ik")

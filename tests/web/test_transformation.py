@@ -123,3 +123,22 @@ def _json(body: Any) -> str:
     import json
 
     return json.dumps(body)  # allow_nan: send a literal NaN as a sloppy client would
+
+
+async def test_fk_with_links_gives_every_link_pose_and_the_tcp_as_the_stream_does() -> None:
+    robot = next(r for r in demo_cell().robots if r.name == "iiwa7")
+    q = sample_joints("iiwa7", np.random.default_rng(5), 3)
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url)) as base,
+        aiohttp.ClientSession() as http,
+    ):
+        body = {"joints": q.tolist(), "links": True}
+        status, fk = await post(http, f"{base}/api/robots/iiwa7/fk", body)
+        too_many = {"joints": [q[0].tolist()] * 65, "links": True}
+        status_many, _ = await post(http, f"{base}/api/robots/iiwa7/fk", too_many)
+    assert status == 200 and status_many == 422
+    links, tcp, _ = robot.poses(q)
+    np.testing.assert_allclose(matrix_from_pose7(np.array(fk["links"])), links, atol=1e-12)
+    np.testing.assert_allclose(np.array(fk["links"])[:, -1], np.array(fk["tcp"]), atol=1e-12)
+    np.testing.assert_allclose(matrix_from_pose7(np.array(fk["tcp"])), tcp, atol=1e-12)
