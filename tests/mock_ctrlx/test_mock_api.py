@@ -41,7 +41,8 @@ async def test_tokens_really_expire() -> None:
 
 async def test_browse_metadata_and_commands() -> None:
     async with running() as mock, client(mock.url) as c:
-        assert await c.browse("") == ["motion", "plc"]
+        # "datalayer" holds the data layer's own nodes, as on a device.
+        assert await c.browse("") == ["datalayer", "motion", "plc"]
         assert await c.browse("motion/grp") == ["iiwa", "kin12", "pos"]
         assert "pos-abs" in await c.browse("motion/axs/kin12_a0/cmd")
         meta = await c.metadata("motion/axs/kin12_a0/cmd/pos-abs")

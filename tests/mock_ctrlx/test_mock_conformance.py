@@ -1,6 +1,6 @@
 """The mock answers as the published ctrlX OpenAPI descriptions say (validated with openapi-core).
 
-The descriptions are read from ``../shared/specs/ctrlx`` beside the repository.
+The descriptions are vendored, unmodified, in ``tests/specs/ctrlx`` (see its ORIGIN.md).
 Where a description contradicts itself, the smallest correction is applied
 to the loaded document (``ERRATA``); a test proves each one is needed.
 """
@@ -24,7 +24,7 @@ from openapi_schema_validator import OAS30Validator
 from server.ctrlx import SseParser, SubscriptionSettings, encode_node_path
 from tests.ctrlx.helpers import KIN12, Mock, running
 
-SPECS = Path(__file__).resolve().parents[2].parent / "shared" / "specs" / "ctrlx"
+SPECS = Path(__file__).resolve().parent.parent / "specs" / "ctrlx"
 DL_FILE, IM_FILE = "datalayer.v2.1.5.openapi.json", "identitymanager.v2.10.0.openapi.json"
 DL, IM = "/automation/api/v2", "/identity-manager/api/v2"
 NODE = DL + "/nodes/{Path}"

@@ -50,9 +50,9 @@ def test_commands_move_there_and_hold() -> None:
     duration = machine.command("kin12", [10.0, -5.0], t=100.0)
     assert duration > 0.0
     assert machine.group_positions("kin12", 100.0 + duration + 1.0) == pytest.approx([10.0, -5.0])
-    machine.command_axis("iiwa_a4", -30.0, t=200.0)
+    held = machine.command_axis("iiwa_a4", -30.0, t=200.0) + 1.0  # the demo resumes later
     before = machine.group_positions("iiwa", 200.0)
-    after = machine.group_positions("iiwa", 300.0)
+    after = machine.group_positions("iiwa", 200.0 + held)
     assert after[3] == pytest.approx(-30.0)
     assert np.delete(after, 3) == pytest.approx(np.delete(before, 3))
     with pytest.raises(ValueError, match="outside"):
