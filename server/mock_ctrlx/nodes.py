@@ -66,6 +66,8 @@ class NodeTree:
         self._group_cmds: dict[str, str] = {}
         self._resets: set[str] = set()
         for axis in machine.axes.values():
+            if axis.position_node in self.positions:
+                raise ValueError(f"nodes served twice: {axis.position_node}")
             self.positions[axis.position_node] = axis.name
             if axis.node is None:
                 self._actuals[f"{AXES}/{axis.name}/{ACTUAL}"] = axis.name
