@@ -181,9 +181,7 @@ async def serve(
     app: web.Application, host: str, port: int, ssl_context: ssl.SSLContext | None = None
 ) -> tuple[web.AppRunner, str]:
     """Start ``app`` on host:port (0 picks a free port); returns the runner and base URL."""
-    # Handlers are cancelled when their client hangs up, so an event stream ends (and its
-    # subscription's lifetime starts) at once, not at its next publish.
-    runner = web.AppRunner(app, access_log=None, shutdown_timeout=2.0, handler_cancellation=True)
+    runner = web.AppRunner(app, access_log=None, shutdown_timeout=2.0)
     await runner.setup()
     site = web.TCPSite(runner, host, port, ssl_context=ssl_context)
     await site.start()

@@ -32,6 +32,8 @@ from .state import DL_BASE, STATE_KEY, MockState, SubscriptionSpec, bearer_token
 UINT32_MAX = 4294967295
 HANGUP_GRACE_S = 0.05
 """How long DELETE waits for a stream whose client just hung up to notice it."""
+HANGUP_POLL_S = 0.05
+"""How often a stream waiting for its next publish looks whether its client hung up."""
 
 
 def _interval(props: dict[str, Any], name: str, default: int) -> int:
@@ -150,6 +152,28 @@ async def delete_subscription(request: web.Request) -> web.Response:
     return web.Response(status=200)
 
 
+def _hung_up(request: web.Request) -> bool:
+    return request.transport is None or request.transport.is_closing()
+
+
+async def _next_tick(pacer: Pacer, request: web.Request) -> bool:
+    """Wait for the pacer's next tick; False as soon as the client hangs up.
+
+    A stream otherwise notices a gone client only when its next write fails,
+    a whole publish interval later; its subscription's lifetime starts when
+    its last stream ends, so the end should be seen at once.
+    """
+    tick = asyncio.ensure_future(pacer.wait())
+    try:
+        while not tick.done():
+            if _hung_up(request):
+                return False
+            await asyncio.wait([tick], timeout=HANGUP_POLL_S)
+    finally:
+        tick.cancel()
+    return not _hung_up(request)
+
+
 def sse(event: str, event_id: int, data: dict[str, Any]) -> bytes:
     """One server-sent event."""
     return b"event: %s\nid: %d\ndata: %s\n\n" % (event.encode(), event_id, orjson.dumps(data))
@@ -235,7 +259,8 @@ async def stream(
                     state.traffic.bytes_out += len(chunk)
                     await response.write(chunk)
                     last_write = now
-            await pacer.wait()
+            if not await _next_tick(pacer, request):
+                return response  # the client hung up
         await response.write_eof()
     except ConnectionResetError:
         pass  # the client went away
