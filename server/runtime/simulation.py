@@ -55,7 +55,7 @@ def _group(robot: Robot, simulated: set[str]) -> AxisGroup | None:
                 a_max=a_si / gain,
                 lo=float(lo[i]),
                 hi=float(hi[i]),
-                # node=joint.node,
+                node=joint.node,
             )
         )
     targets = robot.demo_targets or _drawn_targets(robot, lo, hi)

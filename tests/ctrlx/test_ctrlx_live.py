@@ -47,7 +47,7 @@ async def test_unknown_node_is_node_not_found_with_its_address() -> None:
             await c.read_number("motion/axs/nope/state/values/actual/pos")
     assert caught.value.title == "DL_INVALID_ADDRESS"
     assert (
-        caught.value.instance == "/automation/api/v2/nodes/motion/axs/nope/state/values/actual/pos"
+        caught.value.instance == "motion/axs/nope/state/values/actual/pos"
     )
 
 
