@@ -1,17 +1,22 @@
-# linkview: the viewer server with its embedded mock controller.
-#   docker build -t linkview . && docker run -p 8000:8000 linkview
-# Point it at a controller with: -e LINKVIEW_CTRLX_URL=https://<device> (plus user/password).
+# linkview: the viewer server, with an embedded mock controller unless the cell names one.
+#   docker build -t linkview . && docker run -p 8000:8000 -e LINKVIEW_VIEWER_TOKEN=<secret> linkview
+# Then open http://<host>:8000/?token=<secret> (the link sets a cookie; share it only with viewers).
+# Your own cell: -v $PWD/mycell:/cell -e LINKVIEW_CELL=/cell/cell.toml, passwords as -e variables.
 FROM python:3.11-slim
 
 WORKDIR /app
-COPY pyproject.toml README.md ./
+COPY pyproject.toml setup.py README.md ./
 COPY server ./server
-RUN pip install --no-cache-dir -e .
 COPY static ./static
 COPY assets ./assets
+COPY cells ./cells
+RUN pip install --no-cache-dir .
 
-# Inside a container the port must be reachable from outside it.
+# Inside a container the port must be reachable from outside it. Without a viewer token the
+# server warns that anyone who reaches the port can watch: set LINKVIEW_VIEWER_TOKEN.
 ENV LINKVIEW_HOST=0.0.0.0 \
     LINKVIEW_PORT=8000
 EXPOSE 8000
+# 503 while no data source delivers samples.
+HEALTHCHECK --interval=10s --timeout=3s --start-period=20s --retries=3 CMD ["python", "-m", "server.healthcheck"]
 CMD ["python", "-m", "server"]

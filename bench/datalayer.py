@@ -251,9 +251,10 @@ def report(results: list[Result], seconds: float, nodes: int) -> None:
 
 def cell_nodes() -> int:
     sys.path.insert(0, str(ROOT))
-    from server.cell import default_cell
+    from server.cell import load_cell
+    from server.paths import DEMO_CELL
 
-    return sum(len(robot.joints) for robot in default_cell())
+    return sum(len(robot.joints) for robot in load_cell(DEMO_CELL).robots)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, write_section  # noqa: E402
 
-from server.cell import default_cell  # noqa: E402
+from server.cell import load_cell  # noqa: E402
+from server.paths import DEMO_CELL  # noqa: E402
 from server.stream.frames import compute_frame  # noqa: E402
 from server.stream.types import RobotSample  # noqa: E402
 
@@ -99,7 +100,7 @@ async def run_case(base: str, pid: int, viewers: int, seconds: float) -> list[st
 def per_sample_path_us() -> list[list[str]]:
     """Median time of kinematics + encoding one frame, per robot of the default cell."""
     rows = []
-    for robot in default_cell():
+    for robot in load_cell(DEMO_CELL).robots:
         sample = RobotSample(
             seq=1, t_source=time.time(), values=__import__("numpy").full(len(robot.joints), 10.0)
         )

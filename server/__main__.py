@@ -1,23 +1,41 @@
-"""``python -m server``: serve the viewer, with an embedded mock unless a controller is named."""
+"""``python -m server``: serve the viewer; ``python -m server check FILE``: check a cell file."""
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import uvicorn
 from pydantic import ValidationError
 
+from .cell import CellError, load_cell
 from .config import Settings
 from .logs import setup_logging
+from .runtime.startup import configured_cell
 from .web import create_app
 
 
 def parse_settings(argv: list[str] | None = None) -> Settings:
     """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags."""
-    parser = argparse.ArgumentParser(prog="python -m server", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m server",
+        description="Serve the live 3D view. `python -m server check FILE` checks a cell file.",
+    )
     parser.add_argument("--host", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, help="port to bind (default 8000)")
-    parser.add_argument("--ctrlx", metavar="URL", help="ctrlX base URL (default: embedded mock)")
+    parser.add_argument(
+        "--cell", metavar="FILE", help="the cell file (TOML, docs/cell.md; default: the demo cell)"
+    )
+    parser.add_argument(
+        "--allow-commands",
+        action="store_true",
+        default=None,
+        help="let the page move robots of real controllers (embedded mocks always may)",
+    )
+    parser.add_argument(
+        "--ctrlx", metavar="URL", help="controller URL for a one-source cell (default: its own)"
+    )
     parser.add_argument(
         "--mode",
         choices=["subscribe", "poll", "get"],
@@ -40,6 +58,8 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
     overrides = {
         "host": args.host,
         "port": args.port,
+        "cell": args.cell,
+        "allow_commands": args.allow_commands,
         "ctrlx_url": args.ctrlx,
         "ctrlx_mode": args.mode,
         "ctrlx_api": args.api,
@@ -53,16 +73,45 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         parser.error(problems)
 
 
+def check(argv: list[str]) -> int:
+    """Check cell files: one line per robot, or every mistake with its key; the exit status."""
+    parser = argparse.ArgumentParser(prog="python -m server check", description=check.__doc__)
+    parser.add_argument("files", nargs="+", metavar="FILE", help="cell files to check")
+    status = 0
+    for name in parser.parse_args(argv).files:
+        try:
+            cell = load_cell(Path(name))
+        except CellError as exc:
+            print(exc, file=sys.stderr)
+            status = 1
+            continue
+        for robot in cell.robots:
+            meshes = sum(m is not None for m in robot.meshes)
+            print(
+                f"{name}: {robot.name}: {robot.family}, {len(robot.joints)} joints, "
+                f"source {robot.source}, {meshes} meshes"
+            )
+    return status
+
+
 def main(argv: list[str] | None = None) -> None:
-    """Run the server until interrupted."""
+    """Run the server until interrupted (or check cell files)."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["check"]:
+        sys.exit(check(argv[1:]))
     settings = parse_settings(argv)
     setup_logging()
-    source = settings.ctrlx_url or "the embedded mock data layer"
+    try:
+        cell = configured_cell(settings)
+    except CellError as exc:  # refuse to start, with the same message as `check`
+        print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
+        sys.exit(2)
+    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
     print(
-        f"linkview: open http://{settings.host}:{settings.port}/  (data from {source})", flush=True
+        f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )
     uvicorn.run(
-        create_app(settings),
+        create_app(settings, cell),
         host=settings.host,
         port=settings.port,
         log_level="warning",

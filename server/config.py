@@ -17,8 +17,12 @@ class Settings(BaseSettings):
 
     host: str = "127.0.0.1"
     port: int = Field(8000, ge=0, le=65535)
+    cell: Path | None = None
+    """The cell file (TOML, see docs/cell.md); None: the shipped demo cell."""
+    allow_commands: bool = False
+    """Let the page move robots of real controllers too (embedded mocks always may)."""
     ctrlx_url: str | None = None
-    """Base URL of the ctrlX device, e.g. ``https://192.168.1.1``; None starts the embedded mock."""
+    """Base URL of the ctrlX device for a one-source cell, overriding the cell's own source."""
     ctrlx_user: str = "boschrexroth"
     ctrlx_password: SecretStr = SecretStr("boschrexroth")
     ctrlx_api: Literal["v2", "v1"] = "v2"

@@ -1,19 +1,27 @@
-"""Every message of the viewer WebSocket protocol, in one file (protocol 1).
+"""Every message of the viewer WebSocket protocol, in one file (protocols 1 and 2).
 
 These models are the contract: ``docs/protocol.md`` describes them, the frame
 encoder's output is validated against them in tests, and the fields that
 ``static/`` reads are checked against them so the page and server cannot drift.
 Frames are encoded by hand in ``stream.frames`` (hot path); these models are
-not instantiated per sample.
+not instantiated per sample. Protocol 2 sends the same frames as one binary
+message per source and sample, laid out by the structs at the end of this file.
 """
 
 from __future__ import annotations
 
+import struct
+from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+import numpy.typing as npt
 from pydantic import BaseModel, ConfigDict
 
 PROTOCOL_VERSION = 1
+"""What a viewer gets unless it asks for more (the ``linkview.2`` WebSocket subprotocol)."""
+PROTOCOLS = {"linkview.2": 2}
+"""WebSocket subprotocol -> protocol version."""
 
 Pose7 = list[float]
 """[x, y, z, qx, qy, qz, qw]: metres in the robot base frame (Z up), unit quaternion."""
@@ -26,17 +34,23 @@ class _Message(BaseModel):
 class JointInfo(_Message):
     name: str
     unit: Literal["rad", "m"]
+    limits: list[float] | None = None
+    """[lower, upper] in ``unit``; None: unlimited."""
 
 
 class LinkInfo(_Message):
     name: str
-    mesh: str
-    """URL of the link's glTF binary; its origin is the link frame."""
+    mesh: str | None
+    """URL of the link's glTF binary (origin = link frame); None: the page draws a stand-in."""
 
 
 class RobotInfo(_Message):
     name: str
-    kinematics: Literal["type12", "dh", "axis_group"]
+    kinematics: Literal["type12", "dh", "axis_group", "urdf"]
+    source: str
+    """The data source whose samples drive this robot."""
+    commandable: bool = False
+    """True where the server accepts moves for it (embedded mock or --allow-commands)."""
     params: dict[str, object]
     """What a client needs to redo the forward kinematics (SI units)."""
     joints: list[JointInfo]
@@ -48,7 +62,9 @@ class RobotInfo(_Message):
 class SourceStatus(_Message):
     name: str
     url: str
-    state: Literal["connecting", "connected", "error"]
+    mock: bool = False
+    """True for an embedded mock data layer."""
+    state: Literal["connecting", "connected", "stale", "error"]
     error: str | None
     warning: str | None = None
     """A standing caveat that does not stop the stream, e.g. the device's clock is behind."""
@@ -85,4 +101,85 @@ class Status(_Message):
     sources: list[SourceStatus]
 
 
-MESSAGE_TYPES: dict[str, type[_Message]] = {"hello": Hello, "frame": Frame, "status": Status}
+class CellNotice(_Message):
+    type: Literal["cell"]
+    path: str | None
+    """The cell file being shown."""
+    error: str | None
+    """Why the file as it is on disk now could not be loaded (the last good cell still runs)."""
+
+
+MESSAGE_TYPES: dict[str, type[_Message]] = {
+    "hello": Hello,
+    "frame": Frame,
+    "status": Status,
+    "cell": CellNotice,
+}
+
+
+# -- protocol 2: one binary message per source and sample (little-endian, no padding) ----------
+
+FRAMES_KIND = 1
+FRAMES_HEADER = struct.Struct("<BBHIdd")
+"""kind = 1, version = 2, robot_count, seq, t_source, t_sent (unix s): 24 bytes."""
+ROBOT_HEADER = struct.Struct("<HBBHH")
+"""robot_index (hello order), ok, joint_count, link_count, error_bytes: 8 bytes.
+
+Then ``f32 joints[joint_count]``, ``f32 links[link_count * 7]``, ``f32 tcp[7]``
+and ``error_bytes`` of UTF-8 error text. Where ok is 0, link_count is 0.
+"""
+
+F32 = npt.NDArray[np.float32]
+
+
+@dataclass(frozen=True)
+class RobotFrame2:
+    """One robot's part of a protocol-2 frames message (SI units, base frame)."""
+
+    robot_index: int
+    ok: bool
+    joints: F32
+    links: F32
+    """``(link_count, 7)``: x, y, z, qx, qy, qz, qw."""
+    tcp: F32
+    error: str | None
+
+
+@dataclass(frozen=True)
+class Frames2:
+    """A decoded protocol-2 frames message."""
+
+    seq: int
+    t_source: float
+    t_sent: float
+    robots: list[RobotFrame2]
+
+
+def decode_frames(data: bytes) -> Frames2:
+    """Decode a protocol-2 frames message; raises ValueError if it is not one."""
+    if len(data) < FRAMES_HEADER.size:
+        raise ValueError(f"{len(data)} bytes is shorter than the frames header")
+    kind, version, count, seq, t_source, t_sent = FRAMES_HEADER.unpack_from(data, 0)
+    if (kind, version) != (FRAMES_KIND, 2):
+        raise ValueError(f"not a protocol-2 frames message (kind {kind}, version {version})")
+    at, robots = FRAMES_HEADER.size, []
+    for _ in range(count):
+        index, ok, n_joints, n_links, n_error = ROBOT_HEADER.unpack_from(data, at)
+        at += ROBOT_HEADER.size
+        floats = np.frombuffer(data, "<f4", n_joints + 7 * n_links + 7, at)
+        at += floats.nbytes
+        error = data[at : at + n_error].decode("utf-8") if n_error else None
+        at += n_error
+        robots.append(
+            RobotFrame2(
+                robot_index=index,
+                ok=bool(ok),
+                joints=floats[:n_joints],
+                links=floats[n_joints : n_joints + 7 * n_links].reshape(n_links, 7),
+                tcp=floats[n_joints + 7 * n_links :],
+                error=error,
+            )
+        )
+    if at != len(data):
+        raise ValueError(f"{len(data) - at} bytes left over after {count} robots")
+    return Frames2(seq, t_source, t_sent, robots)

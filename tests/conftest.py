@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import socket
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
@@ -10,10 +11,22 @@ from contextlib import asynccontextmanager
 import uvicorn
 from aiohttp import web
 
-from server.cell import Robot
+from server.cell import Cell, Robot, load_cell
 from server.config import Settings
 from server.mock_ctrlx import build_app, serve
+from server.paths import DEMO_CELL
 from server.web import create_app
+
+
+def demo_cell() -> Cell:
+    """The shipped demo cell, as ``python -m server`` runs it without ``--cell``."""
+    return load_cell(DEMO_CELL)
+
+
+def cell_with(*robots: Robot) -> Cell:
+    """The demo cell plus ``robots`` (on its one source), with no file behind it to follow."""
+    cell = demo_cell()
+    return dataclasses.replace(cell, path=None, robots=(*cell.robots, *robots))
 
 
 def free_port() -> int:
@@ -37,13 +50,11 @@ async def running_mock(
 
 
 @asynccontextmanager
-async def running_server(
-    settings: Settings, robots: list[Robot] | None = None
-) -> AsyncIterator[str]:
+async def running_server(settings: Settings, cell: Cell | None = None) -> AsyncIterator[str]:
     """linkview served by uvicorn on a free loopback port; yields its http base URL."""
     port = free_port()
     config = uvicorn.Config(
-        create_app(settings, robots),
+        create_app(settings, cell),
         host="127.0.0.1",
         port=port,
         log_level="warning",

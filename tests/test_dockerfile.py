@@ -24,9 +24,17 @@ def dockerfile_cmd_and_env() -> tuple[list[str], dict[str, str]]:
     return cmd, env
 
 
+def healthcheck_cmd() -> list[str]:
+    text = (ROOT / "Dockerfile").read_text()
+    match = re.search(r"^HEALTHCHECK .*?CMD (\[.*\])$", text, re.M)
+    assert match, "the Dockerfile needs a HEALTHCHECK"
+    cmd: list[str] = json.loads(match.group(1))
+    return cmd
+
+
 def test_dockerfile_copies_everything_the_server_reads() -> None:
     text = (ROOT / "Dockerfile").read_text()
-    for folder in ("server", "static", "assets"):
+    for folder in ("server", "static", "assets", "cells"):
         assert re.search(rf"^COPY {folder} \./{folder}$", text, re.M), folder
 
 
@@ -37,6 +45,9 @@ def test_dockerfile_entry_command_serves_health() -> None:
     port = free_port()
     # Same command and variables, but bound to loopback only, as tests must be.
     run_env = {**os.environ, **env, "LINKVIEW_HOST": "127.0.0.1", "LINKVIEW_PORT": str(port)}
+    check = [sys.executable, *healthcheck_cmd()[1:]]
+    before = subprocess.run(check, cwd=ROOT, env=run_env, capture_output=True, timeout=30)
+    assert before.returncode == 1, "no server yet: the health check must fail"
     proc = subprocess.Popen([sys.executable, *cmd[1:]], cwd=ROOT, env=run_env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
     try:
@@ -53,6 +64,8 @@ def test_dockerfile_entry_command_serves_health() -> None:
             assert time.monotonic() < deadline, "server did not become healthy"
             time.sleep(0.2)
         assert health["status"] == "ok"
+        after = subprocess.run(check, cwd=ROOT, env=run_env, capture_output=True, timeout=30)
+        assert after.returncode == 0, after.stderr
     finally:
         proc.terminate()
         proc.wait(10)

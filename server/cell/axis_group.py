@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from ..kinematics import WorldModel, serial_rotary_inverse
 from .robot import Array, BoolArray
 
@@ -36,34 +34,3 @@ class AxisGroupKinematics:
     def params(self) -> dict[str, Any]:
         """The group as ``WorldModel.params`` describes it."""
         return self._world.params(self._group)
-
-
-def tilt_rotate_positioner() -> AxisGroupKinematics:
-    """A 2-axis positioner: a tilt axis along base +X at 0.45 m carrying a turntable.
-
-    The table surface is 0.1 m above the tilt axis; at zero tilt its frame is
-    parallel to the base. Tilt limits +-60 deg, turn +-360 deg.
-    """
-    world = WorldModel()
-    world.axis_group_add("positioner", [0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
-    world.axis_group_add_axis(
-        "positioner",
-        "pos_tilt",
-        "",
-        [0.0, 0.0, 0.45, 0.0, np.pi / 2, 0.0],
-        0,
-        1.0,
-        1.0,
-        q_limits=[-np.pi / 3, np.pi / 3],
-    )
-    world.axis_group_add_axis(
-        "positioner",
-        "pos_turn",
-        "pos_tilt",
-        [-0.1, 0.0, 0.0, 0.0, -np.pi / 2, 0.0],
-        0,
-        1.0,
-        1.0,
-        q_limits=[-2 * np.pi, 2 * np.pi],
-    )
-    return AxisGroupKinematics(world, "positioner")

@@ -1,9 +1,10 @@
-"""A robot of the cell: its kinematics, its joints' data-layer nodes, its meshes."""
+"""A robot of the cell: its kinematics, its joints' data-layer nodes, its meshes (all SI)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 from typing import Any, Literal, Protocol
 
 import numpy as np
@@ -14,10 +15,13 @@ from ..protocol import JointInfo, LinkInfo, RobotInfo
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 
+Family = Literal["type12", "dh", "axis_group", "urdf"]
+SourceUnit = Literal["deg", "rad", "mm", "m"]
+
 DEG = np.pi / 180.0
 MM = 1e-3
-UNIT_SCALE = {"deg": DEG, "rad": 1.0, "mm": MM, "m": 1.0}
-"""Data-layer unit -> SI factor; the only place degrees and millimetres become SI."""
+UNIT_SCALE: dict[str, float] = {"deg": DEG, "rad": 1.0, "mm": MM, "m": 1.0}
+"""Data-layer unit -> SI factor; with the cell file, the only place degrees and mm become SI."""
 
 
 class Kinematics(Protocol):
@@ -31,16 +35,28 @@ class Kinematics(Protocol):
 
 @dataclass(frozen=True)
 class Joint:
-    """One joint: its name, the data-layer node it is read from, and that node's unit."""
+    """One joint: its data-layer node, how node values become SI, and its limits (SI)."""
 
     name: str
     node: str
-    source_unit: Literal["deg", "rad", "mm", "m"]
+    source_unit: SourceUnit
+    scale: float = 1.0
+    offset: float = 0.0
+    limits: tuple[float, float] | None = None
+    """[lower, upper] in rad or m; None: unlimited."""
 
     @property
     def si_unit(self) -> Literal["rad", "m"]:
         """``rad`` for rotary joints, ``m`` for linear ones."""
         return "rad" if self.source_unit in ("deg", "rad") else "m"
+
+    def to_si(self, value: float) -> float:
+        """A node value in SI: ``(value * scale + offset)`` converted from the node's unit."""
+        return (value * self.scale + self.offset) * UNIT_SCALE[self.source_unit]
+
+    def from_si(self, value: float) -> float:
+        """The node value that stands for ``value`` (rad or m); inverse of ``to_si``."""
+        return (value / UNIT_SCALE[self.source_unit] - self.offset) / self.scale
 
 
 @dataclass(frozen=True)
@@ -48,13 +64,20 @@ class Robot:
     """A robot placed in the cell at ``base`` ([x, y, z, qx, qy, qz, qw], world frame, Z up)."""
 
     name: str
-    family: Literal["type12", "dh", "axis_group"]
+    family: Family
     kinematics: Kinematics
     joints: tuple[Joint, ...]
     link_names: tuple[str, ...]
+    source: str = "demo"
     base: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+    meshes: tuple[Path | None, ...] = ()
+    """Per link, its GLB file (link frame, Z up); None where the page draws a stand-in."""
     tcp_is_last_link: bool = False
     """True where the TCP is the last link frame, so it need not be computed twice."""
+    command_node: str = ""
+    """Node taking ``{"axsPos": [...]}`` (node units) for a synchronised move."""
+    demo_targets: tuple[tuple[float, ...], ...] = ()
+    """Positions (node units) an embedded mock cycles through; empty: drawn within limits."""
 
     def poses(self, q: Array) -> tuple[Array, Array, BoolArray]:
         """Link poses ``(..., n, 4, 4)``, TCP ``(..., 4, 4)`` and ``ok`` for joints ``q`` (SI)."""
@@ -70,17 +93,51 @@ class Robot:
         return tuple(j.node for j in self.joints)
 
     @cached_property
-    def to_si(self) -> Array:
-        """Per-joint factors turning data-layer values into SI units."""
-        return np.array([UNIT_SCALE[j.source_unit] for j in self.joints])
+    def _affine(self) -> tuple[Array, Array]:
+        factor = np.array([UNIT_SCALE[j.source_unit] for j in self.joints])
+        gain = np.array([j.scale for j in self.joints]) * factor
+        return gain, np.array([j.offset for j in self.joints]) * factor
 
-    def info(self) -> RobotInfo:
+    def to_si(self, values: Array) -> Array:
+        """Joint values ``(..., n)`` read from the nodes, in SI (rad or m)."""
+        gain, bias = self._affine
+        return values * gain + bias
+
+    def from_si(self, q: Array) -> Array:
+        """Node values ``(..., n)`` standing for joints ``q`` (SI); inverse of ``to_si``."""
+        gain, bias = self._affine
+        return (q - bias) / gain
+
+    @cached_property
+    def limits(self) -> Array:
+        """Joint limits ``(n, 2)`` in SI; +-inf where a joint has none."""
+        return np.array([j.limits or (-np.inf, np.inf) for j in self.joints], dtype=np.float64)
+
+    def mesh_url(self, link: int) -> str | None:
+        """Where the page fetches link ``link``'s mesh (cache-busted by content), if it has one."""
+        path = self.meshes[link] if link < len(self.meshes) else None
+        if path is None:
+            return None
+        return f"/meshes/{self.name}/{link}.glb?v={_content_tag(path)}"
+
+    def info(self, commandable: bool = False) -> RobotInfo:
         """The robot as announced in ``hello``."""
         return RobotInfo(
             name=self.name,
             kinematics=self.family,
+            source=self.source,
+            commandable=commandable,
             params=self.kinematics.params(),
-            joints=[JointInfo(name=j.name, unit=j.si_unit) for j in self.joints],
-            links=[LinkInfo(name=n, mesh=f"/assets/{self.name}/{n}.glb") for n in self.link_names],
+            joints=[
+                JointInfo(name=j.name, unit=j.si_unit, limits=list(j.limits) if j.limits else None)
+                for j in self.joints
+            ],
+            links=[LinkInfo(name=n, mesh=self.mesh_url(i)) for i, n in enumerate(self.link_names)],
             base=list(self.base),
         )
+
+
+def _content_tag(path: Path) -> str:
+    """A short tag that changes when the file does (size and mtime; no read per hello)."""
+    stat = path.stat()
+    return f"{stat.st_size:x}{stat.st_mtime_ns:x}"[-12:]

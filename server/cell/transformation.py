@@ -20,11 +20,15 @@ class TransformInputError(ValueError):
 
 @dataclass(frozen=True)
 class ForwardResult:
-    """TCP poses ``[x, y, z, qx, qy, qz, qw]`` (m), roll-pitch-yaw (rad, seed 004) and ``ok``."""
+    """TCP poses ``[x, y, z, qx, qy, qz, qw]`` (m), roll-pitch-yaw (rad, seed 004) and ``ok``.
+
+    ``links``, when asked for, holds every link's pose per row (hello order, base frame).
+    """
 
     tcp: list[list[float]]
     rpy: list[list[float]]
     ok: list[bool]
+    links: list[list[list[float]]] | None = None
 
 
 @dataclass(frozen=True)
@@ -48,16 +52,25 @@ def _joint_rows(robot: Robot, joints: list[list[float]]) -> Array:
     return q
 
 
-def forward(robot: Robot, joints: list[list[float]]) -> ForwardResult:
-    """TCP pose of each joint row (rad or m, hello order)."""
+def forward(robot: Robot, joints: list[list[float]], links: bool = False) -> ForwardResult:
+    """TCP pose (and, if ``links``, every link's pose) of each joint row (rad or m)."""
     q = _joint_rows(robot, joints)
-    tcp, ok = robot.kinematics.forward(q)
+    if links:
+        link_poses, tcp, ok = robot.poses(q)
+    else:
+        tcp, ok = robot.kinematics.forward(q)
     rpy = rpy_from_matrix(tcp[..., :3, :3])
     good = np.asarray(ok, dtype=bool)
     return ForwardResult(
         tcp=[p if g else [] for p, g in zip(pose7_from_matrix(tcp).tolist(), good, strict=True)],
         rpy=[r if g else [] for r, g in zip(rpy.tolist(), good, strict=True)],
         ok=good.tolist(),
+        links=None
+        if not links
+        else [
+            p if g else []
+            for p, g in zip(pose7_from_matrix(link_poses).tolist(), good, strict=True)
+        ],
     )
 
 

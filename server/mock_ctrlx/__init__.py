@@ -2,13 +2,14 @@
 
 from .app import build_app, serve
 from .faults import Faults
-from .machine import AxisGroup, Machine, SimAxis, demo_groups
+from .machine import UNITS, AxisGroup, Machine, SimAxis, demo_groups
 from .nodes import NodeTree
 from .state import STATE_KEY, MockState
 from .tls import MockCertificate, make_certificate
 
 __all__ = [
     "STATE_KEY",
+    "UNITS",
     "AxisGroup",
     "Faults",
     "Machine",

@@ -19,7 +19,11 @@ async def _run(args: argparse.Namespace) -> None:
             cert = make_certificate(Path(args.tls_dir) if args.tls_dir else Path(tmp))
             context = cert.server_context()
             note = f" (trust it with --ctrlx-ca {cert.ca_file})"
-        app = build_app(token_lifetime_s=args.token_lifetime, changes_only=args.changes_only)
+        app = build_app(
+            token_lifetime_s=args.token_lifetime,
+            changes_only=args.changes_only,
+            subscription_lifetime_s=args.subscription_lifetime,
+        )
         runner, url = await serve(app, args.host, args.port, context)
         print(f"mock ctrlX data layer at {url}{note}", flush=True)
         try:
@@ -34,6 +38,13 @@ def main() -> None:
     parser.add_argument("--port", type=int, default=8443)
     parser.add_argument(
         "--token-lifetime", type=float, default=3600.0, metavar="S", help="seconds a token lives"
+    )
+    parser.add_argument(
+        "--subscription-lifetime",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="seconds a created subscription outlives its last event stream",
     )
     parser.add_argument(
         "--tls", action="store_true", help="serve HTTPS with a self-signed certificate made now"

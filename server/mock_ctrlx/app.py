@@ -2,31 +2,36 @@
 
 Paths follow the published OpenAPI descriptions (identity manager v2.10.0,
 data layer v2.1.5); the older firmware's ``/identity-manager/api/v1.0`` (and
-``v1``) token and ``/automation/api/v1/<path>`` reads are served too. Admin
-endpoints for fault injection live under ``/mock/``.
+``v1``) token and ``/automation/api/v1/<path>`` nodes are served too. Every
+collection route also takes a trailing slash, as the device does (Node-RED's
+ctrlX nodes create subscriptions with ``POST /automation/api/v2/events/``).
+Whatever is not served answers a Problem (``application/json``), never a
+plain-text 404 or 405. Admin endpoints for fault injection live under
+``/mock/`` (see ``admin``).
 """
 
 from __future__ import annotations
 
 import logging
 import ssl
-from typing import Any
+from collections.abc import Mapping
 
 from aiohttp import web
 from aiohttp.typedefs import Handler
 
-from ..ctrlx.paths import encode_node_path
-from ..ctrlx.timestamps import filetime_from_unix
-from . import events
+from . import datalayer, events, identity
+from .admin import add_admin_routes, guard_admin
 from .auth import TokenIssuer
 from .faults import Faults, faults_middleware
 from .machine import Machine
-from .nodes import NodeError, NodeTree
-from .state import DL_BASE, STATE_KEY, MockState, bearer_token, problem, problem_body
+from .nodes import NodeTree
+from .problems import request_problem
+from .state import DL_BASE, STATE_KEY, MockState, Subscriptions, bearer_token
 
 log = logging.getLogger(__name__)
 
-AUTH_BASES = ("/identity-manager/api/v2", "/identity-manager/api/v1.0", "/identity-manager/api/v1")
+IM_BASE = "/identity-manager/api/v2"
+AUTH_BASES = (IM_BASE, "/identity-manager/api/v1.0", "/identity-manager/api/v1")
 DL_V1_BASES = ("/automation/api/v1", "/automation/api/v1.0")
 DEFAULT_USERS = {"boschrexroth": "boschrexroth"}
 
@@ -53,171 +58,77 @@ async def require_token(request: web.Request, handler: Handler) -> web.StreamRes
             "no bearer token given" if token is None else request.app[STATE_KEY].tokens.check(token)
         )
         if reason is not None:
-            return problem(401, "Unauthorized", reason, request.path)
+            title = "DL_SEC_NOTOKEN" if token is None else "DL_SEC_INVALIDSESSION"
+            return request_problem(request, 401, "Unauthorized", reason, dynamic=title)
     return await handler(request)
 
 
-# -- identity manager ---------------------------------------------------------
-
-
-async def create_token(request: web.Request) -> web.Response:
-    """POST /auth/token: 201 with a bearer token, 401 Problem on wrong credentials."""
+@web.middleware
+async def problems_only(request: web.Request, handler: Handler) -> web.StreamResponse:
+    """Turn the router's plain-text errors (unknown path, wrong method) into Problems."""
     try:
-        body = await request.json()
-        user, password = body["name"], body["password"]
-        if not isinstance(user, str) or not isinstance(password, str):
-            raise TypeError
-    except (ValueError, KeyError, TypeError):
-        return problem(400, "Bad Request", "expected JSON with 'name' and 'password'")
-    token = request.app[STATE_KEY].tokens.issue(user, password)
-    if token is None:
-        return problem(401, "Unauthorized", "wrong user name or password", request.path)
-    if request.query.get("dryrun") == "true":
-        return web.Response(status=204)
-    return web.json_response({"access_token": token, "token_type": "Bearer"}, status=201)
+        return await handler(request)
+    except web.HTTPException as exc:
+        if exc.status < 400:
+            raise
+        title = exc.reason or "Error"
+        detail = f"{request.method} {request.path}: {title.lower()}"
+        response = request_problem(request, exc.status, title, detail)
+        if isinstance(exc, web.HTTPMethodNotAllowed):
+            response.headers["Allow"] = ", ".join(sorted(exc.allowed_methods))
+        return response
 
 
-async def delete_token(request: web.Request) -> web.Response:
-    """DELETE /auth/token: revoke the bearer token (204 whatever it was)."""
-    token = bearer_token(request)
-    if token is not None:
-        request.app[STATE_KEY].tokens.revoke(token)
-    return web.Response(status=204)
+def _route(router: web.UrlDispatcher, path: str, handlers: Mapping[str, Handler]) -> None:
+    """Route ``path``, with and without a trailing slash, for each method of ``handlers``."""
+    for variant in (path, path + "/"):
+        for method, handler in handlers.items():
+            router.add_route(method, variant, handler)
 
 
-async def token_validity(request: web.Request) -> web.Response:
-    """GET /auth/token/validity: whether the bearer token is still accepted."""
-    token = bearer_token(request)
-    valid = token is not None and request.app[STATE_KEY].tokens.check(token) is None
-    return web.json_response({"valid": valid})
-
-
-# -- data layer ---------------------------------------------------------------
-
-
-def _node_problem(request: web.Request, err: NodeError) -> web.Response:
-    return problem(err.status, err.title, err.detail, request.path)
-
-
-async def read_node(request: web.Request) -> web.Response:
-    """GET /nodes/{path}[?type=browse|metadata]: value, children or metadata of a node."""
-    state = request.app[STATE_KEY]
-    node = request.match_info.get("path", "")  # percent-decoded by the router; "" is the root
-    kind = request.query.get("type", "read")
-    try:
-        if kind == "browse":
-            return web.json_response({"type": "arstring", "value": state.nodes.browse(node)})
-        if kind == "metadata":
-            return web.json_response({"type": "object", "value": state.nodes.metadata(node)})
-        if kind not in ("read", "data"):
-            return problem(400, "DL_INVALID_VALUE", f"unknown type '{kind}'", request.path)
-        return web.json_response(state.nodes.read(node))
-    except NodeError as err:
-        return _node_problem(request, err)
-
-
-async def write_node(request: web.Request) -> web.Response:
-    """PUT /nodes/{path}: write a value, or command a move on a ``cmd`` node."""
-    state = request.app[STATE_KEY]
-    try:
-        body = await request.json()
-    except ValueError:
-        return problem(400, "DL_TYPE_MISMATCH", "body is not JSON", request.path)
-    try:
-        return web.json_response(state.nodes.write(request.match_info["path"], body))
-    except NodeError as err:
-        return _node_problem(request, err)
-
-
-async def bulk(request: web.Request) -> web.Response:
-    """PUT /bulk?type=read|write|browse|metadata: many nodes in one round trip."""
-    state = request.app[STATE_KEY]
-    kind = request.query.get("type", "read")
-    if kind not in ("read", "write", "browse", "metadata"):
-        return problem(400, "DL_INVALID_VALUE", f"unsupported bulk type '{kind}'", request.path)
-    try:
-        items = await request.json()
-        if not isinstance(items, list) or not all(
-            isinstance(i, dict) and isinstance(i.get("address"), str) for i in items
-        ):
-            raise TypeError
-    except (ValueError, TypeError):
-        return problem(400, "DL_INVALID_VALUE", "expected [{'address': ...}, ...]", request.path)
-    t = state.machine.now()
-    positions = state.machine.snapshot(t)  # one instant for every node of the request
-    stamp = str(filetime_from_unix(t))
-    answer: list[dict[str, Any]] = []
-    for item in items:
-        node = item["address"]
-        try:
-            data = _bulk_one(state, kind, node, item, positions, t)
-            entry = {"result": "DL_OK", "type": data["type"], "value": data["value"]}
-        except NodeError as err:
-            instance = f"{DL_BASE}/nodes/{encode_node_path(node)}"
-            body = problem_body(err.status, err.title, err.detail, instance)
-            entry = {"result": err.title, "type": "error", "value": body}
-        answer.append({"address": node, "timestamp": stamp, **entry})
-    return web.json_response(answer)
-
-
-def _bulk_one(
-    state: MockState,
-    kind: str,
-    node: str,
-    item: dict[str, Any],
-    positions: dict[str, float],
-    t: float,
-) -> dict[str, Any]:
-    if kind == "read":
-        return state.nodes.read(node, positions)
-    if kind == "write":
-        return state.nodes.write(node, item, t)
-    if kind == "browse":
-        return {"type": "arstring", "value": state.nodes.browse(node)}
-    return {"type": "object", "value": state.nodes.metadata(node)}
-
-
-# -- admin (not part of ctrlX) ------------------------------------------------
-
-
-async def get_faults(request: web.Request) -> web.Response:
-    """GET /mock/faults: the faults switched on now."""
-    return web.json_response(request.app[STATE_KEY].faults.as_dict())
-
-
-async def put_faults(request: web.Request) -> web.Response:
-    """PUT /mock/faults: switch faults, e.g. ``{"outage": true}``."""
-    faults = request.app[STATE_KEY].faults
-    try:
-        changes = await request.json()
-        faults.update(changes if isinstance(changes, dict) else {})
-    except (ValueError, TypeError):
-        return problem(400, "Bad Request", "expected a JSON object of faults")
-    return web.json_response(faults.as_dict())
-
-
-async def get_stats(request: web.Request) -> web.Response:
-    """GET /mock/stats: requests and body bytes served on the ctrlX paths, open streams."""
-    state = request.app[STATE_KEY]
-    return web.json_response(
-        {
-            "requests": state.traffic.requests,
-            "bytes_out": state.traffic.bytes_out,
-            "open_streams": state.open_streams,
+def _identity_routes(router: web.UrlDispatcher) -> None:
+    for base in AUTH_BASES:
+        token = {
+            "POST": identity.create_token,
+            "GET": identity.get_token,
+            "DELETE": identity.delete_token,
         }
-    )
+        _route(router, base + "/auth/token", token)
+        _route(router, base + "/auth/token/validity", {"GET": identity.token_validity})
+    _route(router, IM_BASE + "/setup/state", {"GET": identity.setup_state})
+    _route(router, IM_BASE + "/auth/oidc/login", {"GET": identity.oidc_login})
+    _route(router, IM_BASE + "/auth/oidc/callback", {"GET": identity.oidc_callback})
+    for template, methods in identity.UNSERVED.items():
+        handlers = {m: identity.unserved(template, m) for m in methods.split()}
+        _route(router, IM_BASE + template, handlers)
 
 
-async def drop_streams(request: web.Request) -> web.Response:
-    """POST /mock/faults/drop-streams: end every open event stream."""
-    request.app[STATE_KEY].faults.drop_streams()
-    return web.Response(status=204)
-
-
-async def revoke_all(request: web.Request) -> web.Response:
-    """POST /mock/tokens/revoke-all: invalidate every token (clients must log in again)."""
-    request.app[STATE_KEY].tokens.revoke_all()
-    return web.Response(status=204)
+def _datalayer_routes(router: web.UrlDispatcher, *, subscriptions: bool, bulk: bool) -> None:
+    if bulk:
+        _route(router, DL_BASE + "/bulk", {"PUT": datalayer.bulk})
+    if subscriptions:
+        _route(
+            router,
+            DL_BASE + "/events",
+            {"POST": events.create_subscription, "GET": events.short_form},
+        )
+        one = {
+            "GET": events.open_subscription,
+            "PUT": events.change_subscription,
+            "DELETE": events.delete_subscription,
+        }
+        _route(router, DL_BASE + "/events/{id}", one)
+    nodes: dict[str, Handler] = {
+        "GET": datalayer.read_node,
+        "PUT": datalayer.write_node,
+        "POST": datalayer.create_node,
+        "DELETE": datalayer.delete_node,
+    }
+    for base in (DL_BASE + "/nodes", *DL_V1_BASES):
+        _route(router, base, nodes)  # the root, "/nodes" or "/nodes/"
+        for method, handler in nodes.items():
+            # "{path:.+}" takes a trailing slash along; the handlers strip it.
+            router.add_route(method, base + "/{path:.+}", handler)
 
 
 async def _stop_streams(app: web.Application) -> None:
@@ -232,17 +143,22 @@ def build_app(
     subscriptions: bool = True,
     bulk_reads: bool = True,
     changes_only: bool = False,
+    subscription_lifetime_s: float = 60.0,
 ) -> web.Application:
     """The mock app; run it with ``serve()``.
 
     ``subscriptions=False`` / ``bulk_reads=False`` leave those routes out, as on
-    firmware without them (the client must fall back).
+    firmware without them (they answer 404, and the client must fall back).
+    ``subscription_lifetime_s``: how long a created subscription outlives its
+    last open stream (the spec's minute by default).
     """
     app = web.Application(
         middlewares=[
             count_traffic,
+            guard_admin,
             faults_middleware(lambda a: a[STATE_KEY].faults),
             require_token,
+            problems_only,
         ]
     )
     machine = machine or Machine()
@@ -251,29 +167,12 @@ def build_app(
         tokens=TokenIssuer(users=dict(users or DEFAULT_USERS), lifetime_s=token_lifetime_s),
         nodes=NodeTree(machine),
         faults=Faults(),
+        subscriptions=Subscriptions(lifetime_s=subscription_lifetime_s),
         changes_only=changes_only,
     )
-    router = app.router
-    for base in AUTH_BASES:
-        router.add_post(base + "/auth/token", create_token)
-        router.add_delete(base + "/auth/token", delete_token)
-        router.add_get(base + "/auth/token/validity", token_validity)
-    if bulk_reads:
-        router.add_put(DL_BASE + "/bulk", bulk)
-    if subscriptions:
-        router.add_post(DL_BASE + "/events", events.create_subscription)
-        router.add_get(DL_BASE + "/events", events.short_form)
-        router.add_get(DL_BASE + "/events/{id}", events.open_subscription)
-        router.add_delete(DL_BASE + "/events/{id}", events.delete_subscription)
-    router.add_get(DL_BASE + "/nodes/", read_node)  # the root: browse lists the top nodes
-    for base in (DL_BASE + "/nodes", *DL_V1_BASES):
-        router.add_get(base + "/{path:.+}", read_node)
-        router.add_put(base + "/{path:.+}", write_node)
-    router.add_get("/mock/faults", get_faults)
-    router.add_put("/mock/faults", put_faults)
-    router.add_post("/mock/faults/drop-streams", drop_streams)
-    router.add_get("/mock/stats", get_stats)
-    router.add_post("/mock/tokens/revoke-all", revoke_all)
+    _identity_routes(app.router)
+    _datalayer_routes(app.router, subscriptions=subscriptions, bulk=bulk_reads)
+    add_admin_routes(app.router)
     app.on_shutdown.append(_stop_streams)
     return app
 

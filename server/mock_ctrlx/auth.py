@@ -21,6 +21,7 @@ class TokenIssuer:
     clock: Callable[[], float] = time.time
     _key: bytes = field(default_factory=lambda: secrets.token_bytes(32), repr=False)
     _revoked: set[str] = field(default_factory=set, repr=False)
+    _sessions: dict[str, str] = field(default_factory=dict, repr=False)
     issued: int = 0
 
     def issue(self, user: str, password: str) -> str | None:
@@ -55,10 +56,26 @@ class TokenIssuer:
         return None
 
     def revoke(self, token: str) -> None:
-        """Make ``token`` invalid from now on (DELETE /auth/token)."""
+        """Make ``token`` invalid from now on (DELETE /auth/token), and end its sessions."""
         self._revoked.add(token)
+        self._sessions = {s: t for s, t in self._sessions.items() if t != token}
 
     def revoke_all(self) -> None:
         """Invalidate every token issued so far (tests use it to force a re-login)."""
         self._key = secrets.token_bytes(32)
         self._revoked.clear()
+        self._sessions.clear()
+
+    def open_session(self, token: str) -> str:
+        """A new session id for ``token`` (the ``CTRLX-OS-SESSION-ID`` cookie of a login)."""
+        session = secrets.token_urlsafe(24)
+        self._sessions[session] = token
+        return session
+
+    def session_token(self, session: str) -> str | None:
+        """The still valid token of ``session``, if there is one."""
+        token = self._sessions.get(session)
+        if token is None or self.check(token) is not None:
+            self._sessions.pop(session, None)
+            return None
+        return token

@@ -1,10 +1,15 @@
-"""Mock subscriptions: ``POST/GET/DELETE /events[/{id}]`` and their server-sent event streams.
+"""Mock subscriptions: ``POST/GET/PUT/DELETE /events[/{id}]`` and their server-sent event streams.
 
 A stream samples its nodes once per publish interval and sends one ``update``
 event per node (all with the same FILETIME timestamp), an ``error`` event for
-a node that cannot be read (at most once per error interval), and a
-``keepalive`` when nothing was sent for a keepalive interval. It ends when its
-token expires or is revoked, on ``drop_streams``, in an outage and on shutdown.
+a node that cannot be read (at most once per error interval; a Problem whose
+``instance`` is the node address), and a ``keepalive`` when nothing was sent
+for a keepalive interval. It ends when its token expires or is revoked, on
+``drop_streams``, in an outage and on shutdown.
+
+A created subscription lives while a stream of it is open and for its
+lifetime (60 s by default, as the spec says) after the last one closed;
+deleting it while a stream is open answers 409.
 """
 
 from __future__ import annotations
@@ -18,52 +23,94 @@ import orjson
 from aiohttp import web
 
 from ..ctrlx.pacing import Pacer
-from ..ctrlx.paths import encode_node_path
 from ..ctrlx.timestamps import filetime_from_unix
-from .nodes import NodeError
-from .state import (
-    DL_BASE,
-    STATE_KEY,
-    MockState,
-    SubscriptionSpec,
-    bearer_token,
-    problem,
-    problem_body,
-)
+from .datalayer import BadBody, json_body, read
+from .nodes import MIN_PUBLISH_MS, NodeError
+from .problems import problem_body, request_problem
+from .state import DL_BASE, STATE_KEY, MockState, SubscriptionSpec, bearer_token
 
-MIN_PUBLISH_MS = 5
-"""Faster publishing would only burn the CPU the tests share with the server under test."""
+UINT32_MAX = 4294967295
+HANGUP_GRACE_S = 0.05
+"""How long DELETE waits for a stream whose client just hung up to notice it."""
+HANGUP_POLL_S = 0.05
+"""How often a stream waiting for its next publish looks whether its client hung up."""
 
 
-def _interval(raw: Any, default: int) -> int:
-    if isinstance(raw, bool) or not isinstance(raw, int) or raw < 0:
+def _interval(props: dict[str, Any], name: str, default: int) -> int:
+    """A uint32 property; numbers sent as strings (``"200"``) count, as the device takes them."""
+    raw = props.get(name)
+    if raw is None:
         return default
-    return raw
+    value: float
+    if isinstance(raw, bool):
+        raise BadBody(f"{name} must be a number, not {raw!r}")
+    if isinstance(raw, str):
+        try:
+            value = float(raw.strip())
+        except ValueError:
+            raise BadBody(f"{name} must be a number, not {raw!r}") from None
+    elif isinstance(raw, int | float):
+        value = raw
+    else:
+        raise BadBody(f"{name} must be a number, not {raw!r}")
+    if not (math.isfinite(value) and 0 <= value <= UINT32_MAX):
+        raise BadBody(f"{name} must be between 0 and {UINT32_MAX}, not {raw!r}")
+    return round(value)
+
+
+def _nodes(raw: Any) -> list[str]:
+    if not isinstance(raw, list) or not all(isinstance(n, str) for n in raw):
+        raise BadBody("'nodes' must be a list of node addresses")
+    return [n.strip("/") for n in raw]
+
+
+def _spec(body: Any) -> SubscriptionSpec:
+    """The subscription a ``POST /events`` body asks for."""
+    if not isinstance(body, dict) or not isinstance(body.get("properties"), dict):
+        raise BadBody("expected {'properties': {'id': ...}, 'nodes': [...]}")
+    props = body["properties"]
+    sub_id = props.get("id")
+    if not isinstance(sub_id, str) or not sub_id:
+        raise BadBody("properties.id must be a non-empty string")
+    rules = props.get("rules", [])
+    if not isinstance(rules, list):
+        raise BadBody("properties.rules must be a list")
+    return SubscriptionSpec(
+        id=sub_id,
+        nodes=_nodes(body.get("nodes")),
+        publish_ms=_interval(props, "publishInterval", 1000),
+        keepalive_ms=_interval(props, "keepaliveInterval", 60000),
+        error_ms=_interval(props, "errorInterval", 10000),
+        rules=rules,
+    )
 
 
 async def create_subscription(request: web.Request) -> web.Response:
-    """POST /events: create (or replace) a subscription; 201 with its Location."""
+    """POST /events: create (or update) a subscription; 201 with its Location."""
     try:
-        body = await request.json()
-        props, nodes = body["properties"], body["nodes"]
-        sub_id = props["id"]
-        if not (isinstance(sub_id, str) and sub_id and isinstance(nodes, list)):
-            raise TypeError
-        if not all(isinstance(n, str) for n in nodes):
-            raise TypeError
-    except (ValueError, KeyError, TypeError):
-        return problem(
-            400, "DL_INVALID_VALUE", "expected {'properties': {'id': ...}, 'nodes': [...]}"
-        )
-    request.app[STATE_KEY].subscriptions[sub_id] = SubscriptionSpec(
-        id=sub_id,
-        nodes=[n.strip("/") for n in nodes],
-        publish_ms=_interval(props.get("publishInterval"), 1000),
-        keepalive_ms=_interval(props.get("keepaliveInterval"), 60000),
-        error_ms=_interval(props.get("errorInterval"), 10000),
-    )
-    location = f"{DL_BASE}/events/{quote(sub_id, safe='')}"
+        spec = _spec(await json_body(request))
+    except BadBody as exc:
+        return request_problem(request, 400, "DL_INVALID_VALUE", str(exc))
+    request.app[STATE_KEY].subscriptions.put(spec)
+    location = f"{DL_BASE}/events/{quote(spec.id, safe='')}"
     return web.Response(status=201, headers={"Location": location})
+
+
+async def change_subscription(request: web.Request) -> web.Response:
+    """PUT /events/{id} with ``{"id", "nodes"}``: a new node list, open streams included."""
+    sub_id = request.match_info["id"]
+    spec = request.app[STATE_KEY].subscriptions.get(sub_id)
+    if spec is None:
+        return request_problem(request, 404, "DL_INVALID_ADDRESS", f"no subscription '{sub_id}'")
+    try:
+        body = await json_body(request)
+        if not isinstance(body, dict):
+            raise BadBody("expected {'id': ..., 'nodes': [...]}")
+        nodes = _nodes(body.get("nodes"))
+    except BadBody as exc:
+        return request_problem(request, 400, "DL_INVALID_VALUE", str(exc))
+    spec.nodes = nodes
+    return web.Response(status=200)
 
 
 async def open_subscription(request: web.Request) -> web.StreamResponse:
@@ -71,28 +118,60 @@ async def open_subscription(request: web.Request) -> web.StreamResponse:
     sub_id = request.match_info["id"]
     spec = request.app[STATE_KEY].subscriptions.get(sub_id)
     if spec is None:
-        return problem(404, "DL_INVALID_ADDRESS", f"no subscription '{sub_id}'", request.path)
-    return await stream(request, spec)
+        return request_problem(request, 404, "DL_INVALID_ADDRESS", f"no subscription '{sub_id}'")
+    return await stream(request, spec, created=True)
 
 
 async def short_form(request: web.Request) -> web.StreamResponse:
     """GET /events?nodes=a,b&publishIntervalMs=N: subscribe and stream in one request."""
     nodes = [n.strip("/") for n in request.query.get("nodes", "").split(",") if n.strip("/")]
     if not nodes:
-        return problem(400, "DL_INVALID_VALUE", "query parameter 'nodes' is required")
+        return request_problem(request, 400, "DL_INVALID_VALUE", "query 'nodes' is required")
     try:
-        publish_ms = int(request.query.get("publishIntervalMs", "1000"))
-    except ValueError:
-        return problem(400, "DL_INVALID_VALUE", "publishIntervalMs must be an integer")
-    return await stream(request, SubscriptionSpec(id="", nodes=nodes, publish_ms=publish_ms))
+        publish_ms = _interval(dict(request.query), "publishIntervalMs", 1000)
+    except BadBody as exc:
+        return request_problem(request, 400, "DL_INVALID_VALUE", str(exc))
+    spec = SubscriptionSpec(id="", nodes=nodes, publish_ms=publish_ms)
+    return await stream(request, spec, created=False)
 
 
 async def delete_subscription(request: web.Request) -> web.Response:
-    """DELETE /events/{id}."""
+    """DELETE /events/{id}: 200, or 409 while a stream of it is open."""
+    subscriptions = request.app[STATE_KEY].subscriptions
     sub_id = request.match_info["id"]
-    if request.app[STATE_KEY].subscriptions.pop(sub_id, None) is None:
-        return problem(404, "DL_INVALID_ADDRESS", f"no subscription '{sub_id}'", request.path)
+    spec = subscriptions.get(sub_id)
+    if spec is None:
+        return request_problem(request, 404, "DL_INVALID_ADDRESS", f"no subscription '{sub_id}'")
+    if spec.live_streams():
+        # A client that closes its stream and deletes at once races its own hang-up.
+        await asyncio.sleep(HANGUP_GRACE_S)
+    if spec.live_streams():
+        detail = f"subscription '{sub_id}' has an open event stream"
+        return request_problem(request, 409, "DL_RESOURCE_UNAVAILABLE", detail)
+    subscriptions.pop(sub_id)
     return web.Response(status=200)
+
+
+def _hung_up(request: web.Request) -> bool:
+    return request.transport is None or request.transport.is_closing()
+
+
+async def _next_tick(pacer: Pacer, request: web.Request) -> bool:
+    """Wait for the pacer's next tick; False as soon as the client hangs up.
+
+    A stream otherwise notices a gone client only when its next write fails,
+    a whole publish interval later; its subscription's lifetime starts when
+    its last stream ends, so the end should be seen at once.
+    """
+    tick = asyncio.ensure_future(pacer.wait())
+    try:
+        while not tick.done():
+            if _hung_up(request):
+                return False
+            await asyncio.wait([tick], timeout=HANGUP_POLL_S)
+    finally:
+        tick.cancel()
+    return not _hung_up(request)
 
 
 def sse(event: str, event_id: int, data: dict[str, Any]) -> bytes:
@@ -121,14 +200,13 @@ class _Publisher:
         positions = machine.snapshot(t)
         stamp = filetime_from_unix(t)
         parts: list[bytes] = []
-        for node in self._spec.nodes:
+        for node in list(self._spec.nodes):  # a PUT may change the list between cycles
             try:
-                data = self._state.nodes.read(node, positions)
+                data = read(self._state, node, positions)
             except NodeError as err:
                 if now - self._last_error.get(node, -math.inf) >= self._spec.error_ms / 1000:
                     self._last_error[node] = now
-                    instance = f"{DL_BASE}/nodes/{encode_node_path(node)}"
-                    body = problem_body(err.status, err.title, err.detail, instance)
+                    body = problem_body(err.status, err.title, err.detail, node, dynamic=node)
                     parts.append(sse("error", self._next_id(), {**body, "node": node}))
                 continue
             value = data["value"]
@@ -146,7 +224,9 @@ class _Publisher:
         return sse("keepalive", self._next_id(), data)
 
 
-async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResponse:
+async def stream(
+    request: web.Request, spec: SubscriptionSpec, *, created: bool
+) -> web.StreamResponse:
     """Serve ``spec`` as ``text/event-stream`` until something ends it."""
     state = request.app[STATE_KEY]
     faults, token = state.faults, bearer_token(request) or ""
@@ -160,6 +240,8 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
     keepalive_s = max(spec.keepalive_ms, MIN_PUBLISH_MS) / 1000
     drops, last_write, pacer = faults.drops, loop.time(), Pacer(publish_s)
     state.open_streams += 1
+    if created:
+        state.subscriptions.opened(spec, request)
     try:
         while not state.closing and faults.drops == drops:
             if faults.outage:
@@ -177,10 +259,13 @@ async def stream(request: web.Request, spec: SubscriptionSpec) -> web.StreamResp
                     state.traffic.bytes_out += len(chunk)
                     await response.write(chunk)
                     last_write = now
-            await pacer.wait()
+            if not await _next_tick(pacer, request):
+                return response  # the client hung up
         await response.write_eof()
     except ConnectionResetError:
         pass  # the client went away
     finally:
         state.open_streams -= 1
+        if created:
+            state.subscriptions.closed(spec, request)
     return response

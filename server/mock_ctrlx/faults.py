@@ -15,6 +15,8 @@ from typing import Any
 from aiohttp import web
 from aiohttp.typedefs import Handler
 
+from .problems import request_problem
+
 CTRLX_PREFIXES = ("/automation/", "/identity-manager/")
 
 
@@ -74,14 +76,8 @@ def faults_middleware(faults_of: Any) -> Any:
         if faults.latency_s > 0.0:
             await asyncio.sleep(faults.latency_s)
         if faults.error_rate > 0.0 and faults.rng.random() < faults.error_rate:
-            body = {
-                "type": "about:blank",
-                "title": "Internal Server Error",
-                "status": 500,
-                "detail": "injected fault (error_rate)",
-                "instance": request.path,
-            }
-            return web.json_response(body, status=500)
+            detail = "injected fault (error_rate)"
+            return request_problem(request, 500, "Internal Server Error", detail)
         return await handler(request)
 
     return inject_faults

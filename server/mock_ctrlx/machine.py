@@ -2,13 +2,15 @@
 
 Each group (one demo robot) repeats a cycle of synchronized trapezoidal moves
 (``server.kinematics.plan_movej``) between its demo targets, with a short
-dwell at each. Positions are a pure function of time, so no background task
-is needed; a commanded move (``command``) replaces the cycle of its group
-until ``resume_demo``.
+dwell at each. Positions are a pure function of time (and of the commands
+given), so no background task is needed. A commanded move (``command``)
+takes its group over; once the group has rested at the target for
+``command_dwell_s`` it moves back to its first demo target and the cycle
+resumes from there, so a command never stops the demo for good.
 
-Values are in the data layer's units, degrees (rotary) and mm (linear),
-velocities per second and accelerations per second squared: the planner's
-arithmetic is the same in any unit.
+Values are in each axis's own unit (``deg``, ``rad``, ``mm`` or ``m``, as the
+data layer serves them), velocities per second and accelerations per second
+squared: the planner's arithmetic is the same in any unit.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
@@ -25,20 +27,37 @@ import numpy.typing as npt
 from ..kinematics import TrapezoidMove, plan_movej
 
 Array = npt.NDArray[np.float64]
+Unit = Literal["deg", "rad", "mm", "m"]
+UNITS: tuple[str, ...] = get_args(Unit)
+ACTUAL_POS = "motion/axs/{name}/state/values/actual/pos"
+"""Where an axis's actual position is served unless ``SimAxis.node`` says otherwise."""
 
 
 @dataclass(frozen=True)
 class SimAxis:
-    """One simulated axis: name, unit, motion limits and the range commands may reach."""
+    """One simulated axis: name, unit, motion limits, the range commands may reach, its node."""
 
     name: str
-    unit: Literal["deg", "mm"]
+    unit: Unit
     v_max: float
     """Velocity limit (unit/s)."""
     a_max: float
     """Acceleration limit (unit/s^2)."""
     lo: float = -np.inf
     hi: float = np.inf
+    node: str | None = None
+    """Data-layer address of the actual position (None: ``ACTUAL_POS`` with the axis name)."""
+
+    def __post_init__(self) -> None:
+        if self.unit not in UNITS:
+            raise ValueError(f"axis {self.name!r}: unit must be one of {UNITS}, not {self.unit!r}")
+        if self.node is not None and not self.node.strip("/"):
+            raise ValueError(f"axis {self.name!r}: node must be a data-layer address")
+
+    @property
+    def position_node(self) -> str:
+        """The node that serves this axis's actual position (no leading or trailing slash)."""
+        return (self.node or ACTUAL_POS.format(name=self.name)).strip("/")
 
 
 @dataclass(frozen=True)
@@ -114,27 +133,53 @@ class _Cycle:
         return pos
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Commanded:
+    """A commanded move, the dwell at its target, the way back and where the cycle resumes."""
+
     t0: float
     move: TrapezoidMove
+    back_t0: float
+    """When the group leaves the target for its first demo target."""
+    back: TrapezoidMove
+    resume_t: float
+    """When the demo cycle starts again (its phase 0 is at this time)."""
+
+    def positions(self, t: float, cycle: _Cycle) -> Array:
+        """Positions at unix time ``t`` (the demo cycle again from ``resume_t`` on)."""
+        if t < self.back_t0:
+            pos: Array = self.move.position(t - self.t0)
+        elif t < self.resume_t:
+            pos = self.back.position(t - self.back_t0)
+        else:
+            pos = cycle.positions(t - self.resume_t)
+        return pos
 
 
 class Machine:
-    """All simulated axes, by group, plus a clock that tests can replace."""
+    """All simulated axes, by group, plus a clock that tests can replace.
+
+    ``command_dwell_s``: how long a group rests at a commanded target before
+    it returns to its demo cycle.
+    """
 
     def __init__(
         self,
         groups: Sequence[AxisGroup] | None = None,
         clock: Callable[[], float] = time.time,
+        *,
+        command_dwell_s: float = 2.0,
     ) -> None:
         self.groups = {g.name: g for g in (demo_groups() if groups is None else groups)}
         self.axes = {a.name: a for g in self.groups.values() for a in g.axes}
+        if len(self.axes) != sum(len(g.axes) for g in self.groups.values()):
+            raise ValueError("axis names must be unique across groups")
         self._group_of = {a.name: g.name for g in self.groups.values() for a in g.axes}
         self._cycles = {name: _Cycle(g) for name, g in self.groups.items()}
         self._commanded: dict[str, _Commanded] = {}
         self._lock = threading.Lock()
         self.clock = clock
+        self.command_dwell_s = command_dwell_s
 
     def now(self) -> float:
         """Current time of the simulation (unix s)."""
@@ -145,8 +190,7 @@ class Machine:
         t = self.now() if t is None else t
         commanded = self._commanded.get(group)
         if commanded is not None:
-            pos: Array = commanded.move.position(t - commanded.t0)
-            return pos
+            return commanded.positions(t, self._cycles[group])
         return self._cycles[group].positions(t)
 
     def snapshot(self, t: float | None = None) -> dict[str, float]:
@@ -169,7 +213,8 @@ class Machine:
 
         Returns the move's duration (s); raises ValueError outside an axis's
         range. The move starts from rest: a mock need not blend into the
-        current motion.
+        current motion. ``command_dwell_s`` after it ends, the group moves
+        back to its first demo target and resumes its cycle.
         """
         axes = self.groups[group].axes
         goal = np.asarray(target, dtype=np.float64)
@@ -179,12 +224,16 @@ class Machine:
             if not axis.lo <= value <= axis.hi:
                 raise ValueError(f"{axis.name}: {value} outside [{axis.lo}, {axis.hi}]")
         t = self.now() if t is None else t
+        v = np.array([a.v_max for a in axes])
+        acc = np.array([a.a_max for a in axes])
+        first = np.asarray(self.groups[group].targets[0], dtype=np.float64)
         with self._lock:
-            start = self.group_positions(group, t)
-            v = np.array([a.v_max for a in axes])
-            acc = np.array([a.a_max for a in axes])
-            move = plan_movej(start, goal, v, acc)
-            self._commanded[group] = _Commanded(t, move)
+            move = plan_movej(self.group_positions(group, t), goal, v, acc)
+            back_t0 = t + move.duration + self.command_dwell_s
+            back = plan_movej(goal, first, v, acc)
+            # Arrive, dwell as at every demo target, then the cycle's first move starts.
+            resume_t = back_t0 + back.duration + self.groups[group].dwell_s
+            self._commanded[group] = _Commanded(t, move, back_t0, back, resume_t)
         return move.duration
 
     def command_axis(self, axis: str, target: float, t: float | None = None) -> float:
@@ -196,7 +245,7 @@ class Machine:
         return self.command(group, goal.tolist(), t)
 
     def resume_demo(self, group: str) -> None:
-        """Return ``group`` to its demo cycle (it jumps to where the cycle is now)."""
+        """Return ``group`` to its demo cycle at once (it jumps to where the cycle is now)."""
         self._commanded.pop(group, None)
 
     def group_of(self, axis: str) -> str:
@@ -204,4 +253,4 @@ class Machine:
         return self._group_of[axis]
 
 
-__all__ = ["AxisGroup", "Machine", "SimAxis", "demo_groups"]
+__all__ = ["UNITS", "AxisGroup", "Machine", "SimAxis", "Unit", "demo_groups"]

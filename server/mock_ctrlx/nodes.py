@@ -1,27 +1,39 @@
-"""The mock data layer's node tree: read, browse, metadata and write, over the simulated machine.
+"""The mock data layer's node tree: read, browse, metadata, write, create and delete.
 
-Nodes (``<axis>`` from the machine, ``<group>`` one per demo robot):
+Nodes (``<axis>`` and ``<group>`` from the machine):
 
-* ``motion/axs/<axis>/state/values/actual/pos``: double, deg or mm;
-* ``motion/axs/<axis>/state/values/actual``: object ``{actualPos, actualPosUnit}``;
-* ``motion/axs/<axis>/cmd/pos-abs``: write ``{"axsPos": x}`` (or a number) to move the axis;
-* ``motion/grp/<group>/cmd/pos-abs``: write ``{"axsPos": [...]}`` to move a whole group;
-* ``plc/app/Application/sym/PLC_PRG/...``: plain variables (the seed's ``dTest`` among them),
-  more can be added with ``add_variable``.
+* each axis's position node, a double in the axis's unit: ``SimAxis.node`` when
+  given, else ``motion/axs/<axis>/state/values/actual/pos``; an axis at the
+  default address also has ``motion/axs/<axis>/state/values/actual`` (object
+  ``{actualPos, actualPosUnit}``), ``cmd/pos-abs`` (write ``{"axsPos": x}`` or a
+  number to move it) and ``cmd/reset``;
+* ``motion/grp/<group>/cmd/pos-abs``: write ``{"axsPos": [...]}`` to move a group;
+  ``motion/grp/<group>/cmd/reset``;
+* ``plc/app/Application/sym/PLC_PRG/...``: plain variables (the seed's ``dTest``
+  among them), more can be added with ``add_variable``;
+* ``datalayer/...``: the data layer's own nodes (``_system_nodes``).
+
+Commands run on a write (PUT) and on a create (POST), as ctrlX motion takes
+them. ``cmd/reset`` takes no argument: an empty body is accepted, as a real
+device accepts empty-argument commands (there is never an error to reset).
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping
 from typing import Any
 
+from ._system_nodes import FOLDERS, NODE_NAMES, SETTINGS, system_nodes
 from .machine import Machine
 
 AXES = "motion/axs"
 GROUPS = "motion/grp"
 PLC = "plc/app/Application/sym/PLC_PRG"
+MIN_PUBLISH_MS = 5
+"""Faster publishing would only burn the CPU the tests share with the server under test."""
 
-ACTUAL, ACTUAL_POS, AXIS_CMD = "state/values/actual", "state/values/actual/pos", "cmd/pos-abs"
+ACTUAL, AXIS_CMD, RESET = "state/values/actual", "cmd/pos-abs", "cmd/reset"
 
 
 class NodeError(Exception):
@@ -38,7 +50,7 @@ def not_found(node: str) -> NodeError:
 
 
 class NodeTree:
-    """Every node of the mock, derived from the machine plus a few PLC variables."""
+    """Every node of the mock, derived from the machine plus PLC variables and system nodes."""
 
     def __init__(self, machine: Machine) -> None:
         self.machine = machine
@@ -46,15 +58,46 @@ class NodeTree:
             f"{PLC}/dTest": {"type": "double", "value": 0.0},
             f"{PLC}/arTargets": {"type": "arfloat64", "value": [0.0, 30.0, -25.0]},
         }
+        self.system = system_nodes(MIN_PUBLISH_MS)
+        self.positions: dict[str, str] = {}
+        """Position node -> axis."""
+        self._actuals: dict[str, str] = {}
+        self._axis_cmds: dict[str, str] = {}
+        self._group_cmds: dict[str, str] = {}
+        self._resets: set[str] = set()
+        for axis in machine.axes.values():
+            if axis.position_node in self.positions:
+                raise ValueError(f"nodes served twice: {axis.position_node}")
+            self.positions[axis.position_node] = axis.name
+            if axis.node is None:
+                self._actuals[f"{AXES}/{axis.name}/{ACTUAL}"] = axis.name
+                self._axis_cmds[f"{AXES}/{axis.name}/{AXIS_CMD}"] = axis.name
+                self._resets.add(f"{AXES}/{axis.name}/{RESET}")
+        for group in machine.groups:
+            self._group_cmds[f"{GROUPS}/{group}/{AXIS_CMD}"] = group
+            self._resets.add(f"{GROUPS}/{group}/{RESET}")
         self._children: dict[str, set[str]] = {}
         self._reindex()
 
+    def _leaves(self) -> list[str]:
+        return [
+            *self.positions,
+            *self._actuals,
+            *self._axis_cmds,
+            *self._group_cmds,
+            *self._resets,
+            *self.variables,
+            *self.system,
+            NODE_NAMES,
+        ]
+
     def _reindex(self) -> None:
-        leaves = [f"{AXES}/{a}/{s}" for a in self.machine.axes for s in (ACTUAL_POS, AXIS_CMD)]
-        leaves += [f"{GROUPS}/{g}/{AXIS_CMD}" for g in self.machine.groups]
-        leaves += list(self.variables)
+        leaves = self._leaves()
+        twice = sorted(n for n, k in Counter(leaves).items() if k > 1)
+        if twice:
+            raise ValueError(f"nodes served twice: {', '.join(twice)}")
         children: dict[str, set[str]] = {"": set()}
-        for leaf in leaves:
+        for leaf in [*leaves, *FOLDERS]:
             parts = leaf.split("/")
             for depth in range(len(parts)):
                 parent = "/".join(parts[:depth])
@@ -64,7 +107,10 @@ class NodeTree:
 
     def add_variable(self, node: str, type_: str, value: Any) -> None:
         """Add (or replace) a plain variable node, e.g. one with odd characters for tests."""
-        self.variables[node.strip("/")] = {"type": type_, "value": value}
+        node = node.strip("/")
+        if node in self._leaves() and node not in self.variables:
+            raise ValueError(f"node '{node}' is served already")
+        self.variables[node] = {"type": type_, "value": value}
         self._reindex()
 
     def read(self, node: str, positions: Mapping[str, float] | None = None) -> dict[str, Any]:
@@ -72,14 +118,17 @@ class NodeTree:
         node = node.strip("/")
         if node in self.variables:
             return dict(self.variables[node])
-        axis, rest = self._axis_part(node)
+        if node in self.system:
+            return dict(self.system[node])
+        if node == NODE_NAMES:
+            return {"type": "arstring", "value": sorted(self._leaves())}
+        axis = self.positions.get(node) or self._actuals.get(node)
         if axis is not None:
             pos = positions[axis] if positions is not None else self.machine.position(axis)
-            if rest == ACTUAL_POS:
+            if node in self.positions:
                 return {"type": "double", "value": pos}
-            if rest == ACTUAL:
-                unit = self.machine.axes[axis].unit
-                return {"type": "object", "value": {"actualPos": pos, "actualPosUnit": unit}}
+            unit = self.machine.axes[axis].unit
+            return {"type": "object", "value": {"actualPos": pos, "actualPosUnit": unit}}
         if node in self._children:
             raise NodeError(400, "DL_INVALID_OPERATION", f"node '{node}' cannot be read")
         raise not_found(node)
@@ -96,51 +145,61 @@ class NodeTree:
         node = node.strip("/")
         if node not in self._children:
             raise not_found(node)
-        axis, rest = self._axis_part(node)
-        command = node.endswith("/" + AXIS_CMD)
-        readable = node in self.variables or (axis is not None and rest in (ACTUAL, ACTUAL_POS))
+        command = self._is_command(node)
+        axis = self.positions.get(node) or self._actuals.get(node)
+        readable = node in self.variables or node in self.system or axis is not None
         meta: dict[str, Any] = {
             "nodeClass": "Method" if command else "Resource",
             "operations": {
-                "read": readable,
-                "write": command or node in self.variables,
-                "create": False,
+                "read": readable or node == NODE_NAMES,
+                "write": command or node in self.variables or node in SETTINGS,
+                "create": command,
                 "delete": False,
                 "browse": bool(self._children[node]),
             },
-            "description": _describe(node, axis, rest),
+            "description": self._describe(node),
             "descriptionUrl": "",
             "displayName": node.rsplit("/", 1)[-1],
         }
-        if axis is not None and rest in (ACTUAL, ACTUAL_POS):
+        if axis is not None:
             meta["unit"] = self.machine.axes[axis].unit
         return meta
 
-    def write(self, node: str, body: Any, t: float | None = None) -> dict[str, Any]:
-        """Write ``body`` (``{"type", "value"}``) to ``node``; returns the written Data."""
+    def write(self, node: str, body: Any, t: float | None = None) -> dict[str, Any] | None:
+        """Write ``body`` (``{"type", "value"}``; None: no body) to ``node``.
+
+        Returns the written Data, or None for a command without a result.
+        """
         node = node.strip("/")
+        if node in self._resets:
+            return None  # nothing to reset: the simulated drives never fail
+        if body is None:
+            if node in self._children:
+                raise NodeError(400, "DL_MISSING_ARGUMENT", f"node '{node}' needs a value")
+            raise not_found(node)
         if not isinstance(body, dict) or "value" not in body:
             raise NodeError(400, "DL_TYPE_MISMATCH", "expected JSON {'type': ..., 'value': ...}")
         value = body["value"]
-        if node in self.variables:
-            current = self.variables[node]
+        stored = self.variables if node in self.variables else self.system
+        if node in self.variables or node in SETTINGS:
+            current = stored[node]
             if body.get("type", current["type"]) != current["type"]:
                 raise NodeError(
                     400, "DL_TYPE_MISMATCH", f"node '{node}' has type {current['type']}"
                 )
-            self.variables[node] = {"type": current["type"], "value": value}
-            return dict(self.variables[node])
+            if current["type"] == "object" and not isinstance(value, dict):
+                raise NodeError(400, "DL_TYPE_MISMATCH", f"node '{node}' takes an object")
+            stored[node] = {"type": current["type"], "value": value}
+            return dict(stored[node])
         try:
-            axis, rest = self._axis_part(node)
-            if axis is not None and rest == AXIS_CMD:
-                self.machine.command_axis(axis, _number(_unwrap(value)), t)
+            if node in self._axis_cmds:
+                self.machine.command_axis(self._axis_cmds[node], _number(_unwrap(value)), t)
                 return {"type": "object", "value": value}
-            group = self._group_part(node)
-            if group is not None:
+            if node in self._group_cmds:
                 target = _unwrap(value)
                 if not isinstance(target, list):
                     raise ValueError("axsPos must be a list with one value per axis")
-                self.machine.command(group, [_number(v) for v in target], t)
+                self.machine.command(self._group_cmds[node], [_number(v) for v in target], t)
                 return {"type": "object", "value": value}
         except ValueError as exc:
             raise NodeError(400, "DL_INVALID_VALUE", str(exc)) from exc
@@ -148,18 +207,35 @@ class NodeTree:
             raise NodeError(400, "DL_INVALID_OPERATION", f"node '{node}' cannot be written")
         raise not_found(node)
 
-    def _axis_part(self, node: str) -> tuple[str | None, str]:
-        """(axis, rest) for ``motion/axs/<axis>/<rest>``; (None, "") otherwise."""
-        if not node.startswith(AXES + "/"):
-            return None, ""
-        axis, _, rest = node[len(AXES) + 1 :].partition("/")
-        return (axis, rest) if axis in self.machine.axes else (None, "")
+    def create(self, node: str, body: Any, t: float | None = None) -> dict[str, Any] | None:
+        """POST on ``node``: runs a command (as a write does); nothing else can be created."""
+        node = node.strip("/")
+        if self._is_command(node):
+            return self.write(node, body, t)
+        if node in self._children:
+            raise NodeError(400, "DL_INVALID_OPERATION", f"nothing can be created at '{node}'")
+        raise not_found(node)
 
-    def _group_part(self, node: str) -> str | None:
-        if node.startswith(GROUPS + "/") and node.endswith("/" + AXIS_CMD):
-            group = node[len(GROUPS) + 1 : -len(AXIS_CMD) - 1]
-            return group if group in self.machine.groups else None
-        return None
+    def delete(self, node: str) -> None:
+        """DELETE on ``node``: no node of the mock can be deleted."""
+        node = node.strip("/")
+        if node in self._children:
+            raise NodeError(403, "DL_PERMISSION_DENIED", f"node '{node}' cannot be deleted")
+        raise not_found(node)
+
+    def _is_command(self, node: str) -> bool:
+        return node in self._axis_cmds or node in self._group_cmds or node in self._resets
+
+    def _describe(self, node: str) -> str:
+        if node in self.positions:
+            return f"Actual position of axis {self.positions[node]}"
+        if node in self._actuals:
+            return f"Actual values of axis {self._actuals[node]}"
+        if node in self._axis_cmds or node in self._group_cmds:
+            return "Absolute move: write {'axsPos': target}"
+        if node in self._resets:
+            return "Reset: takes no argument"
+        return ""
 
 
 def _unwrap(value: Any) -> Any:
@@ -170,13 +246,3 @@ def _number(value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ValueError(f"{value!r} is not a number")
     return float(value)
-
-
-def _describe(node: str, axis: str | None, rest: str) -> str:
-    if axis is not None and rest == ACTUAL_POS:
-        return f"Actual position of axis {axis}"
-    if axis is not None and rest == ACTUAL:
-        return f"Actual values of axis {axis}"
-    if node.endswith("/" + AXIS_CMD):
-        return "Absolute move: write {'axsPos': target}"
-    return ""

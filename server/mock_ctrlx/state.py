@@ -1,7 +1,9 @@
-"""What the mock's handlers share, and the Problem answers they give."""
+"""What the mock's handlers share: machine, tokens, nodes, faults, subscriptions, traffic."""
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -13,6 +15,8 @@ from .machine import Machine
 from .nodes import NodeTree
 
 DL_BASE = "/automation/api/v2"
+SUBSCRIPTION_LIFETIME_S = 60.0
+"""The spec: a created subscription that is not used within one minute is deleted."""
 
 
 def bearer_token(request: web.Request) -> str | None:
@@ -30,6 +34,91 @@ class SubscriptionSpec:
     publish_ms: int = 1000
     keepalive_ms: int = 60000
     error_ms: int = 10000
+    rules: list[Any] = field(default_factory=list)
+    streams: dict[int, web.Request] = field(default_factory=dict, repr=False)
+    """The requests of its open event streams, by ``id()`` (requests are not hashable)."""
+    idle_since: float = field(default_factory=time.monotonic)
+    """Monotonic time since which no stream of it is open."""
+
+    def properties(self) -> dict[str, Any]:
+        """Its ``properties`` object, as ``POST /events`` takes it."""
+        return {
+            "id": self.id,
+            "publishInterval": self.publish_ms,
+            "keepaliveInterval": self.keepalive_ms,
+            "errorInterval": self.error_ms,
+            "rules": list(self.rules),
+        }
+
+    def live_streams(self) -> int:
+        """Open streams whose client has not hung up."""
+        return sum(
+            1
+            for r in self.streams.values()
+            if r.transport is not None and not r.transport.is_closing()
+        )
+
+
+@dataclass
+class Subscriptions:
+    """Created subscriptions by id; one without an open stream for ``lifetime_s`` is gone."""
+
+    lifetime_s: float = SUBSCRIPTION_LIFETIME_S
+    clock: Callable[[], float] = time.monotonic
+    _by_id: dict[str, SubscriptionSpec] = field(default_factory=dict)
+
+    def _expire(self) -> None:
+        now = self.clock()
+        for sub_id, spec in list(self._by_id.items()):
+            if not spec.streams and now - spec.idle_since > self.lifetime_s:
+                del self._by_id[sub_id]
+
+    def get(self, sub_id: str) -> SubscriptionSpec | None:
+        """The live subscription ``sub_id``, if any."""
+        self._expire()
+        return self._by_id.get(sub_id)
+
+    def put(self, spec: SubscriptionSpec) -> SubscriptionSpec:
+        """Create a subscription, or update the one of that id (its open streams follow).
+
+        Returns the subscription as stored; its lifetime starts again now.
+        """
+        self._expire()
+        old = self._by_id.get(spec.id)
+        if old is not None:
+            old.nodes, old.rules = spec.nodes, spec.rules
+            old.publish_ms, old.keepalive_ms, old.error_ms = (
+                spec.publish_ms,
+                spec.keepalive_ms,
+                spec.error_ms,
+            )
+            spec = old
+        spec.idle_since = self.clock()
+        self._by_id[spec.id] = spec
+        return spec
+
+    def pop(self, sub_id: str) -> SubscriptionSpec | None:
+        """Remove and return subscription ``sub_id``."""
+        self._expire()
+        return self._by_id.pop(sub_id, None)
+
+    def opened(self, spec: SubscriptionSpec, request: web.Request) -> None:
+        """A stream of ``spec`` started."""
+        spec.streams[id(request)] = request
+
+    def closed(self, spec: SubscriptionSpec, request: web.Request) -> None:
+        """A stream of ``spec`` ended; its lifetime starts again when it was the last."""
+        spec.streams.pop(id(request), None)
+        if not spec.streams:
+            spec.idle_since = self.clock()
+
+    def __iter__(self) -> Iterator[SubscriptionSpec]:
+        self._expire()
+        return iter(list(self._by_id.values()))
+
+    def __len__(self) -> int:
+        self._expire()
+        return len(self._by_id)
 
 
 @dataclass
@@ -48,7 +137,7 @@ class MockState:
     tokens: TokenIssuer
     nodes: NodeTree
     faults: Faults = field(default_factory=Faults)
-    subscriptions: dict[str, SubscriptionSpec] = field(default_factory=dict)
+    subscriptions: Subscriptions = field(default_factory=Subscriptions)
     changes_only: bool = False
     """Publish a node only when its value changed (the spec's wording); default: every cycle."""
     traffic: Traffic = field(default_factory=Traffic)
@@ -58,19 +147,3 @@ class MockState:
 
 
 STATE_KEY = web.AppKey("state", MockState)
-
-
-def problem_body(
-    status: int, title: str, detail: str, instance: str | None = None
-) -> dict[str, Any]:
-    """An RFC 7807 Problem object, shaped as in the ctrlX OpenAPI descriptions."""
-    body: dict[str, Any] = {"type": "about:blank", "title": title, "status": status}
-    body["detail"] = detail
-    if instance is not None:
-        body["instance"] = instance
-    return body
-
-
-def problem(status: int, title: str, detail: str, instance: str | None = None) -> web.Response:
-    """A Problem response (``application/json``, the media type the ctrlX specs declare)."""
-    return web.json_response(problem_body(status, title, detail, instance), status=status)

@@ -1,8 +1,8 @@
 """One acquisition task per data source, shared by every viewer.
 
-It reads the joint nodes of every robot on that source once per period,
-turns each robot's sample into a frame, and publishes it to the hub. Viewer
-count never changes the data-layer traffic.
+It follows the joint nodes of every robot on that source, turns each sample
+into poses once, encodes them once per protocol, and publishes them to the
+hub. Viewer count never changes the data-layer traffic.
 """
 
 from __future__ import annotations
@@ -11,21 +11,24 @@ import asyncio
 import contextlib
 import logging
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..cell import Robot
 from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
-from .frames import compute_frame
-from .hub import Hub
+from .frames import RobotFrame, compute_frame, encode_binary, encode_json
+from .hub import Hub, Message
 from .status import SourceHealth
 from .types import RobotSample
 
 log = logging.getLogger(__name__)
 
 STATUS_EVERY_S = 1.0
-"""Status is also republished this often while healthy, so pages show a live sample age."""
+"""Status is republished this often, so pages show a live sample age."""
+STATE_CHECK_S = 0.1
+"""How often a source is checked for turning stale between samples."""
 
 
 @dataclass(frozen=True)
@@ -51,18 +54,36 @@ class Acquisition:
         hub: Hub,
         health: SourceHealth,
         settings: PollSettings = PollSettings(),
+        indices: Mapping[str, int] | None = None,
     ) -> None:
         self._client = client
-        self._robots = robots
         self._hub = hub
         self.health = health
+        self.health.period_s = settings.period_s
         self._settings = settings
         self._seq = 0
         self._nodes = sorted({node for robot in robots for node in robot.nodes})
+        self._robots: list[tuple[int, Robot]] = []
+        self.set_robots(robots, indices)
         self._status_sent = 0.0
+        self._state_sent = ""
+
+    def set_robots(self, robots: list[Robot], indices: Mapping[str, int] | None = None) -> None:
+        """Swap in new robot definitions that read the same nodes (a reloaded cell)."""
+        if sorted({node for robot in robots for node in robot.nodes}) != self._nodes:
+            raise ValueError("set_robots cannot change the nodes followed; restart instead")
+        positions = indices or {r.name: i for i, r in enumerate(robots)}
+        self._robots = [(positions[r.name], r) for r in robots]
 
     async def run(self) -> None:
         """Follow the source forever; errors are reported and retried, never raised."""
+        watcher = asyncio.create_task(self._watch_state(), name=f"status:{self.health.name}")
+        try:
+            await self._follow_forever()
+        finally:
+            watcher.cancel()
+
+    async def _follow_forever(self) -> None:
         retry = self._settings.retry_min_s
         while True:
             try:
@@ -85,15 +106,32 @@ class Acquisition:
             await asyncio.sleep(retry)
             retry = min(retry * 2.0, self._settings.retry_max_s)
 
+    async def _watch_state(self) -> None:
+        """Publish status when the derived state changes (e.g. stale) and once a second."""
+        while True:
+            await asyncio.sleep(STATE_CHECK_S)
+            state = self.health.current_state()
+            if state != self._state_sent or time.monotonic() - self._status_sent >= STATUS_EVERY_S:
+                if state == "stale" and self._state_sent != "stale":
+                    log.warning("data source %s: %s", self.health.name, self.health.status().error)
+                self.publish_status()
+
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
-        now = time.monotonic()
-        if self.health.mark_sample() or now - self._status_sent >= STATUS_EVERY_S:
-            self._publish_status()
-        for robot in self._robots:
-            self._publish_robot(robot, sample)
+        if self.health.mark_sample():
+            self.publish_status()
+        frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
+        t_sent = time.time()
+        binary = encode_binary(frames, self._seq, sample.t_source, t_sent)
+        self._hub.publish(
+            f"frames:{self.health.name}", Message(binary, sample.t_source), protocol=2
+        )
+        if self._hub.wants(1):  # protocol 1 costs a JSON encoding per robot: only when watched
+            for _, frame in frames:
+                message = Message(encode_json(frame, t_sent), sample.t_source)
+                self._hub.publish(f"frame:{frame.robot.name}", message, protocol=1)
 
-    def _publish_robot(self, robot: Robot, sample: Sample) -> None:
+    def _frame(self, robot: Robot, sample: Sample) -> RobotFrame:
         read = [sample.values[n] for n in robot.nodes]
         errors = [str(v) for v in read if isinstance(v, Exception)]
         robot_sample = RobotSample(
@@ -104,24 +142,27 @@ class Acquisition:
         )
         bug: Exception | None = None
         try:
-            message, ok, error = compute_frame(robot, robot_sample)
+            frame = compute_frame(robot, robot_sample)
         except Exception as exc:  # one robot's bug must not stop the others
             bug = exc
             failed = RobotSample(robot_sample.seq, robot_sample.t_source, None, repr(exc))
-            message, ok, error = compute_frame(robot, failed)
-        if self.health.mark_robot(robot.name, ok, error):  # log changes only, not every sample
-            if ok:
+            frame = compute_frame(robot, failed)
+        if self.health.mark_robot(robot.name, frame.ok, frame.error):  # changes only
+            if frame.ok:
                 log.info("robot %s: streaming", robot.name)
             else:
-                log.warning("robot %s: %s", robot.name, error, exc_info=bug)
-        self._hub.publish(f"frame:{robot.name}", message.decode())
+                log.warning("robot %s: %s", robot.name, frame.error, exc_info=bug)
+        return frame
 
     def _report_error(self, error: str) -> None:
         if self.health.mark_error(error):
             log.error("data source %s: %s", self.health.name, error)
-            self._publish_status()
+            self.publish_status()
 
-    def _publish_status(self) -> None:
+    def publish_status(self) -> None:
+        """Send this source's status to every viewer now."""
         self.health.warning = self._client.warning
         self._status_sent = time.monotonic()
-        self._hub.publish(f"status:{self.health.name}", self.health.status_message())
+        self._state_sent = self.health.current_state()
+        message = Message(self.health.status_message())
+        self._hub.publish(f"status:{self.health.name}", message)

@@ -1,45 +1,100 @@
-"""Turn one robot sample into the ``frame`` message, encoded once for every viewer."""
+"""Turn a sample into poses once, then into each protocol's bytes once, for every viewer."""
 
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 import orjson
 
 from ..cell import Robot
 from ..kinematics import pose7_from_matrix
+from ..protocol import FRAMES_HEADER, FRAMES_KIND, ROBOT_HEADER
 from .types import Array, RobotSample
 
 # orjson rather than json: it serialises numpy arrays directly and is ~10x
 # faster, and this runs 50-100 times a second per robot.
 _OPTS = orjson.OPT_SERIALIZE_NUMPY
+_NO_FLOATS = np.zeros(0)
+_NO_TCP = np.zeros(7)
+MAX_ERROR_BYTES = 1024
+"""Error texts are cut to this many bytes on the wire (protocol 2's field is 16 bits)."""
 
 
-def compute_frame(robot: Robot, sample: RobotSample) -> tuple[bytes, bool, str | None]:
-    """Poses for ``sample`` encoded as a ``frame`` message; returns (bytes, ok, error)."""
+@dataclass(frozen=True)
+class RobotFrame:
+    """One robot's poses for one sample (SI, base frame), or why there are none."""
+
+    robot: Robot
+    seq: int
+    t_source: float
+    joints: Array | None
+    """Joint values (rad or m) in hello order; None when the sample could not be read."""
+    links: Array
+    """``(n_links, 7)`` poses [x, y, z, qx, qy, qz, qw]; empty unless ``ok``."""
+    tcp: Array
+    """``(7,)``; empty unless ``ok``."""
+    error: str | None
+
+    @property
+    def ok(self) -> bool:
+        """True when the frame holds poses."""
+        return self.error is None
+
+
+def compute_frame(robot: Robot, sample: RobotSample) -> RobotFrame:
+    """Poses of every link and the TCP for ``sample``."""
     error = sample.error
     q: Array | None = None
-    links: Array | list[object] = []
-    tcp: Array | list[object] = []
+    links: Array = _NO_FLOATS.reshape(0, 7)
+    tcp: Array = _NO_FLOATS
     if error is None and sample.values is not None:
-        q = sample.values * robot.to_si
+        q = robot.to_si(sample.values)
         link_poses, tcp_pose, ok = robot.poses(q)
         if bool(ok):
             links = pose7_from_matrix(link_poses)
             tcp = links[-1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
         else:
             error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"
+    return RobotFrame(robot, sample.seq, sample.t_source, q, links, tcp, error)
+
+
+def encode_json(frame: RobotFrame, t_sent: float) -> str:
+    """The protocol-1 ``frame`` message of one robot."""
     message = {
         "type": "frame",
-        "robot": robot.name,
-        "seq": sample.seq,
-        "t_source": sample.t_source,
-        "t_sent": time.time(),
-        "joints": q if q is not None else [],
-        "links": links,
-        "tcp": tcp,
-        "ok": error is None,
-        "error": error,
+        "robot": frame.robot.name,
+        "seq": frame.seq,
+        "t_source": frame.t_source,
+        "t_sent": t_sent,
+        "joints": frame.joints if frame.joints is not None else [],
+        "links": frame.links if frame.ok else [],
+        "tcp": frame.tcp if frame.ok else [],
+        "ok": frame.ok,
+        "error": frame.error,
     }
-    return orjson.dumps(message, option=_OPTS), error is None, error
+    return orjson.dumps(message, option=_OPTS).decode()
+
+
+def encode_binary(
+    frames: list[tuple[int, RobotFrame]], seq: int, t_source: float, t_sent: float
+) -> bytes:
+    """The protocol-2 frames message of one source's sample: ``(hello index, frame)`` pairs."""
+    parts = [FRAMES_HEADER.pack(FRAMES_KIND, 2, len(frames), seq & 0xFFFFFFFF, t_source, t_sent)]
+    for index, frame in frames:
+        joints = frame.joints if frame.joints is not None else _NO_FLOATS
+        error = b"" if frame.error is None else _cut(frame.error.encode("utf-8"))
+        links = frame.links if frame.ok else _NO_FLOATS
+        tcp = frame.tcp if frame.ok else _NO_TCP
+        parts.append(ROBOT_HEADER.pack(index, frame.ok, len(joints), len(links), len(error)))
+        floats = np.concatenate([joints, links.reshape(-1), tcp]).astype("<f4")
+        parts.append(floats.tobytes())
+        parts.append(error)
+    return b"".join(parts)
+
+
+def _cut(text: bytes) -> bytes:
+    """At most MAX_ERROR_BYTES, cut on a character boundary."""
+    if len(text) <= MAX_ERROR_BYTES:
+        return text
+    return text[:MAX_ERROR_BYTES].decode("utf-8", "ignore").encode("utf-8")

@@ -1,14 +1,28 @@
 """Fan-out of encoded messages to viewers: the newest message per key, never a backlog.
 
-Each viewer has one slot per key (``frame:<robot>``, ``status:<source>``). Publishing
-overwrites the slot; a viewer that reads slowly therefore skips stale frames
-instead of queueing them, and can never slow the others down.
+Each viewer has one slot per key (``hello``, ``frames:<source>``,
+``frame:<robot>``, ``status:<source>``). Publishing overwrites the slot; a
+viewer that reads slowly therefore skips stale frames instead of queueing
+them, and can never slow the others down. A message may be meant for one
+protocol version only (protocol 1's JSON frames, protocol 2's binary ones);
+viewers get what their protocol speaks.
 """
 
 from __future__ import annotations
 
 import asyncio
 import itertools
+from collections import Counter
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """An encoded message, the same bytes for every viewer."""
+
+    payload: str | bytes
+    t_source: float | None = None
+    """When the data layer sampled what a frame message shows (unix s); None otherwise."""
 
 
 class Viewer:
@@ -16,27 +30,32 @@ class Viewer:
 
     _ids = itertools.count(1)
 
-    def __init__(self) -> None:
+    def __init__(self, protocol: int = 1) -> None:
         self.id = next(self._ids)
-        self._pending: dict[str, str] = {}
+        self.protocol = protocol
+        self._pending: dict[str, Message] = {}
         self._ready = asyncio.Event()
         self.closed = False
         self.dropped = 0
         """Messages overwritten before this viewer read them."""
 
-    def offer(self, key: str, message: str) -> None:
+    def offer(self, key: str, message: Message) -> None:
         """Replace the pending message for ``key``; never blocks."""
         if key in self._pending:
             self.dropped += 1
         self._pending[key] = message
         self._ready.set()
 
+    def forget(self) -> None:
+        """Drop everything pending (the cell changed: it would describe robots gone by)."""
+        self._pending.clear()
+
     def close(self) -> None:
         """Wake a waiting ``take`` for good: the viewer went away."""
         self.closed = True
         self._ready.set()
 
-    async def take(self) -> list[str]:
+    async def take(self) -> list[Message]:
         """Wait for pending messages and take them all, oldest key first; [] once closed."""
         await self._ready.wait()
         if self.closed:
@@ -48,31 +67,47 @@ class Viewer:
 
 
 class Hub:
-    """Keeps the newest message per key and offers every new one to all viewers."""
+    """Keeps the newest message per key and offers every new one to the viewers it is for."""
 
     def __init__(self) -> None:
         self._viewers: set[Viewer] = set()
-        self._latest: dict[str, str] = {}
+        self._latest: dict[str, tuple[Message, int | None]] = {}
+        self._protocols: Counter[int] = Counter()
         self.dropped_by_departed = 0
 
-    def publish(self, key: str, message: str) -> None:
-        """Offer ``message`` (already encoded) to every viewer."""
-        self._latest[key] = message
+    def publish(self, key: str, message: Message, protocol: int | None = None) -> None:
+        """Offer ``message`` (already encoded) to every viewer of ``protocol`` (None: all)."""
+        self._latest[key] = (message, protocol)
         for viewer in self._viewers:
-            viewer.offer(key, message)
+            if protocol is None or viewer.protocol == protocol:
+                viewer.offer(key, message)
 
-    def join(self) -> Viewer:
-        """A new viewer, primed with the newest message of every key."""
-        viewer = Viewer()
-        for key, message in self._latest.items():
-            viewer.offer(key, message)
+    def restart(self) -> None:
+        """Forget every message, kept and pending: what follows describes a new cell."""
+        self._latest.clear()
+        for viewer in self._viewers:
+            viewer.forget()
+
+    def join(self, protocol: int = 1) -> Viewer:
+        """A new viewer, primed with the newest message of every key for its protocol."""
+        viewer = Viewer(protocol)
+        for key, (message, only) in self._latest.items():
+            if only is None or only == protocol:
+                viewer.offer(key, message)
         self._viewers.add(viewer)
+        self._protocols[protocol] += 1
         return viewer
 
     def leave(self, viewer: Viewer) -> None:
         """Forget a viewer that disconnected."""
-        self._viewers.discard(viewer)
-        self.dropped_by_departed += viewer.dropped
+        if viewer in self._viewers:
+            self._viewers.discard(viewer)
+            self._protocols[viewer.protocol] -= 1
+            self.dropped_by_departed += viewer.dropped
+
+    def wants(self, protocol: int) -> bool:
+        """True when a viewer of ``protocol`` is connected (so its messages are worth encoding)."""
+        return self._protocols[protocol] > 0
 
     @property
     def viewer_count(self) -> int:

@@ -9,6 +9,10 @@ import orjson
 
 from ..protocol import SourceStatus
 
+STALE_PERIODS = 5
+STALE_MIN_S = 0.25
+"""A source whose last sample is older than 5 periods, and at least this, is ``stale``."""
+
 
 @dataclass
 class RobotHealth:
@@ -25,17 +29,41 @@ class SourceHealth:
 
     name: str
     url: str
+    mock: bool = False
+    period_s: float = 0.02
     state: str = "connecting"
+    """As last marked: ``connecting``, ``connected`` or ``error`` (``stale`` is derived)."""
     error: str | None = None
     warning: str | None = None
     last_sample: float | None = None
     """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
 
+    @property
+    def stale_after_s(self) -> float:
+        """Sample age beyond which a connected source counts as stale."""
+        return max(STALE_PERIODS * self.period_s, STALE_MIN_S)
+
+    def age(self) -> float | None:
+        """Seconds since the last sample (our clock), None before the first."""
+        return None if self.last_sample is None else time.monotonic() - self.last_sample
+
+    def current_state(self) -> str:
+        """The state as of now: ``connected`` turns ``stale`` when samples stop coming."""
+        age = self.age()
+        if self.state == "connected" and age is not None and age > self.stale_after_s:
+            return "stale"
+        return self.state
+
+    @property
+    def live(self) -> bool:
+        """True while fresh samples arrive."""
+        return self.current_state() == "connected"
+
     def mark_sample(self) -> bool:
         """A sample arrived."""
+        changed = self.current_state() != "connected"
         self.last_sample = time.monotonic()
-        changed = self.state != "connected"
         self.state, self.error = "connected", None
         return changed
 
@@ -55,12 +83,17 @@ class SourceHealth:
 
     def status(self) -> SourceStatus:
         """As sent to viewers."""
-        age = None if self.last_sample is None else time.monotonic() - self.last_sample
+        state = self.current_state()
+        error = self.error
+        age = self.age()
+        if state == "stale":
+            error = f"no sample for {age:.2f} s (expected every {self.period_s:g} s)"
         return SourceStatus(
             name=self.name,
             url=self.url,
-            state=self.state,  # type: ignore[arg-type]
-            error=self.error,
+            mock=self.mock,
+            state=state,  # type: ignore[arg-type]
+            error=error,
             warning=self.warning,
             last_sample_age_s=age,
         )

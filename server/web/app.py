@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import functools
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -10,30 +13,49 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
-from ..cell import Robot
+from ..cell import Cell
 from ..config import Settings
+from ..paths import STATIC_DIR
 from ..runtime import Runtime
+from ..runtime.reload import follow_cell_file
+from ..runtime.startup import configured_cell, source_defaults, with_controller
 from . import routes, transformation, ws
 
 
-def create_app(settings: Settings, robots: list[Robot] | None = None) -> FastAPI:
-    """An app that starts its Runtime (mock, acquisition) on startup and stops it on shutdown."""
+def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
+    """An app that starts its Runtime on startup and stops it on shutdown.
+
+    Without ``cell``, the settings' cell file (or the demo cell) is loaded. A
+    cell read from a file is followed: saving the file reloads the cell.
+    """
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        app.state.runtime = await Runtime.start(settings, robots)
+        start = configured_cell(settings) if cell is None else with_controller(cell, settings)
+        runtime = await Runtime.start(start, source_defaults(settings))
+        app.state.runtime = runtime
+        stop = asyncio.Event()
+        watcher = None
+        path = runtime.cell.path
+        if path is not None:
+            load = functools.partial(configured_cell, settings, path)
+            watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
         try:
             yield
         finally:
-            await app.state.runtime.stop()
+            stop.set()
+            if watcher is not None:
+                watcher.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await watcher
+            await runtime.stop()
 
     app = FastAPI(title="linkview", lifespan=lifespan)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.include_router(routes.router)
     app.include_router(ws.router)
     app.include_router(transformation.router)
-    app.mount("/static", StaticFiles(directory=routes.STATIC_DIR, check_dir=False), name="static")
-    app.mount("/assets", StaticFiles(directory=routes.ASSETS_DIR, check_dir=False), name="assets")
+    app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 
 

@@ -1,19 +1,15 @@
-"""HTTP routes: the page, its static files and meshes, and the health report."""
+"""HTTP routes: the page, link meshes, the robot list and the health report."""
 
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse, JSONResponse
 
+from ..paths import STATIC_DIR
 from ..runtime import Runtime
-
-ROOT = Path(__file__).resolve().parent.parent.parent
-STATIC_DIR = ROOT / "static"
-ASSETS_DIR = ROOT / "assets"
 
 router = APIRouter()
 
@@ -30,13 +26,41 @@ async def index() -> FileResponse:
     return FileResponse(STATIC_DIR / "index.html")
 
 
+@router.get("/meshes/{robot}/{link}.glb", include_in_schema=False)
+async def mesh(robot: str, link: int, request: Request) -> FileResponse:
+    """The GLB of a robot's link (hello gives each link's URL)."""
+    found = runtime_of(request).robot(robot)
+    path = found.meshes[link] if found is not None and 0 <= link < len(found.meshes) else None
+    if path is None:
+        raise HTTPException(status_code=404, detail=f"no mesh for link {link} of {robot!r}")
+    return FileResponse(path, media_type="model/gltf-binary")
+
+
+@router.get("/api/robots")
+async def robots(request: Request) -> list[dict[str, Any]]:
+    """Every robot of the cell: joints with their nodes, units and limits, links, source."""
+    runtime = runtime_of(request)
+    out = []
+    for robot in runtime.robots:
+        info = robot.info(runtime.commandable(robot)).model_dump()
+        for joint, entry in zip(robot.joints, info["joints"], strict=True):
+            entry.update(
+                node=joint.node,
+                source_unit=joint.source_unit,
+                scale=joint.scale,
+                offset=joint.offset,
+            )
+        out.append(info)
+    return out
+
+
 @router.get("/api/health")
 async def health(request: Request) -> JSONResponse:
-    """Data-source state, sample age and per-robot errors; 200 while the service runs."""
+    """Every source's state and sample age, every robot's error; 503 when no source is live."""
     runtime = runtime_of(request)
-    now = time.time()
     sources: list[dict[str, Any]] = []
-    for source in runtime.sources:
+    robots: list[dict[str, Any]] = []
+    for source in runtime.healths():
         sources.append(
             {
                 **source.status().model_dump(),
@@ -46,15 +70,31 @@ async def health(request: Request) -> JSONResponse:
                 },
             }
         )
-    healthy = all(s["state"] == "connected" for s in sources) and all(
-        r["ok"] for s in sources for r in s["robots"].values()
-    )
-    return JSONResponse(
-        {
-            "status": "ok" if healthy else "degraded",
-            "time": now,
-            "sources": sources,
-            "viewers": runtime.hub.viewer_count,
-            "dropped_frames": runtime.hub.dropped,
-        }
-    )
+    for robot in runtime.robots:
+        source_health = runtime.sources[robot.source].health
+        state = source_health.robots.get(robot.name)
+        robots.append(
+            {
+                "name": robot.name,
+                "source": robot.source,
+                "ok": bool(state and state.ok and source_health.live),
+                "error": None if state is None else state.error,
+                "frames": 0 if state is None else state.frames,
+            }
+        )
+    live = [s["state"] == "connected" for s in sources]
+    healthy = all(live) and all(r["ok"] for r in robots) and runtime.cell_error is None
+    status = "ok" if healthy else "degraded"
+    body = {
+        "status": status,
+        "time": time.time(),
+        "cell": {
+            "path": None if runtime.cell.path is None else str(runtime.cell.path),
+            "error": runtime.cell_error,
+        },
+        "sources": sources,
+        "robots": robots,
+        "viewers": runtime.hub.viewer_count,
+        "dropped_frames": runtime.hub.dropped,
+    }
+    return JSONResponse(body, status_code=200 if any(live) else 503)

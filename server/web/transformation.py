@@ -8,6 +8,7 @@ from fastapi import APIRouter, HTTPException, Request
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..cell import Robot, transformation
+from ..runtime import MoveError
 from .routes import runtime_of
 
 router = APIRouter(prefix="/api/robots")
@@ -16,6 +17,8 @@ Finite = Annotated[float, Field(allow_inf_nan=False)]
 JointRow = Annotated[list[Finite], Field(min_length=1, max_length=16)]
 MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
+MAX_LINK_ROWS = 64
+"""Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
 
 
 class ForwardRequest(BaseModel):
@@ -23,6 +26,8 @@ class ForwardRequest(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     joints: list[JointRow] = Field(min_length=1, max_length=MAX_ROWS)
+    links: bool = False
+    """Also return every link's pose per row (for drawing a configuration)."""
 
 
 class InverseRequest(BaseModel):
@@ -32,6 +37,13 @@ class InverseRequest(BaseModel):
     tcp: Annotated[list[Finite], Field(min_length=7, max_length=7)]
     joints_ref: JointRow | None = None
     all: bool = False
+
+
+class MoveRequest(BaseModel):
+    """Target joints in hello order (rad or m)."""
+
+    model_config = ConfigDict(extra="forbid")
+    joints: JointRow
 
 
 def _robot(request: Request, name: str) -> Robot:
@@ -54,10 +66,23 @@ def _run(call: Any, *args: Any) -> dict[str, Any]:
 @router.post("/{name}/fk")
 def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
     """TCP pose and roll-pitch-yaw for each joint row."""
-    return _run(transformation.forward, _robot(request, name), body.joints)
+    if body.links and len(body.joints) > MAX_LINK_ROWS:
+        raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
+    return _run(transformation.forward, _robot(request, name), body.joints, body.links)
 
 
 @router.post("/{name}/ik")
 def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
     """Joint solutions for a TCP pose; ``best`` is nearest ``joints_ref``."""
     return _run(transformation.inverse, _robot(request, name), body.tcp, body.joints_ref, body.all)
+
+
+@router.post("/{name}/move", status_code=202)
+async def move(name: str, body: MoveRequest, request: Request) -> dict[str, Any]:
+    """Command a synchronised move to ``joints``; 403 where moves are not allowed."""
+    robot = _robot(request, name)
+    try:
+        await runtime_of(request).move(robot, body.joints)
+    except MoveError as exc:
+        raise HTTPException(status_code=exc.status, detail=str(exc)) from exc
+    return {"ok": True, "robot": name, "joints": body.joints}

@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import secrets
 
-import orjson
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
-from ..protocol import PROTOCOL_VERSION, Hello
+from ..protocol import PROTOCOLS
 from ..runtime import Runtime
 
 log = logging.getLogger(__name__)
@@ -20,32 +18,32 @@ SEND_TIMEOUT_S = 10.0
 router = APIRouter()
 
 
-def hello_message(runtime: Runtime) -> str:
-    """The ``hello`` message for a new viewer."""
-    hello = Hello(
-        type="hello",
-        protocol=PROTOCOL_VERSION,
-        session=secrets.token_hex(8),
-        robots=[r.info() for r in runtime.robots],
-    )
-    return orjson.dumps(hello.model_dump()).decode()
+def negotiate(offered: list[str]) -> tuple[str | None, int]:
+    """The subprotocol to accept and the protocol version it means (1 when none is known)."""
+    for name in offered:
+        if name in PROTOCOLS:
+            return name, PROTOCOLS[name]
+    return None, 1
 
 
 @router.websocket("/ws")
 async def viewer_socket(websocket: WebSocket) -> None:
-    """Stream to one viewer; it only ever gets the newest frame per robot."""
+    """Stream to one viewer; it only ever gets the newest frame per key."""
     runtime: Runtime = websocket.app.state.runtime
-    await websocket.accept()
-    viewer = runtime.hub.join()
+    subprotocol, protocol = negotiate(list(websocket.scope.get("subprotocols", [])))
+    await websocket.accept(subprotocol=subprotocol)
+    viewer = runtime.hub.join(protocol)
     receiver = asyncio.create_task(_drain_incoming(websocket))
     receiver.add_done_callback(lambda _: viewer.close())
     try:
-        await websocket.send_text(hello_message(runtime))
         while not viewer.closed:
             batch = await viewer.take()
             async with asyncio.timeout(SEND_TIMEOUT_S):
                 for message in batch:
-                    await websocket.send_text(message)
+                    if isinstance(message.payload, bytes):
+                        await websocket.send_bytes(message.payload)
+                    else:
+                        await websocket.send_text(message.payload)
     except (WebSocketDisconnect, RuntimeError, ConnectionError):
         pass
     except TimeoutError:

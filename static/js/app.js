@@ -54,6 +54,7 @@ class App {
 			case 'hello': this._onHello( message ); break;
 			case 'frame': this.robots.queue( message ); break;
 			case 'status': this.hud.setStatus( message ); break;
+			case 'cell': this.hud.setCell( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
 
 		}

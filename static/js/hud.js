@@ -42,6 +42,7 @@ class Hud {
 		this.retryAt = 0;
 		this.sources = new Map(); // source name -> its newest SourceStatus (one per message)
 		this.problem = null;
+		this.cellError = null; // why the cell file on disk was not reloaded
 		this._cards = new Map(); // robot name -> { joints: [valueEl], state, error, counted, time }
 
 	}
@@ -100,6 +101,12 @@ class Hud {
 			if ( view ) card.swatch.style.background = `#${view.color.getHexString()}`;
 
 		}
+
+	}
+
+	setCell( notice ) {
+
+		this.cellError = notice.error;
 
 	}
 
@@ -178,6 +185,10 @@ class Hud {
 		} else if ( loadError ) {
 
 			text = loadError;
+
+		} else if ( this.cellError ) {
+
+			text = `The cell file was not reloaded: ${this.cellError}`;
 
 		} else if ( source ) {
 

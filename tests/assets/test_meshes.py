@@ -230,10 +230,11 @@ def test_kin12_holes_meet_where_the_kinematics_joins_the_bars() -> None:
 
 
 def test_positioner_table_rests_on_the_cradle_at_every_tilt() -> None:
-    from server.cell.default import positioner
+    from tests.conftest import demo_cell
 
+    positioner = next(r for r in demo_cell().robots if r.name == "positioner")
     for tilt in np.radians([-60.0, 0.0, 45.0]):
-        poses, ok = positioner().kinematics.link_poses(np.array([tilt, 0.3]))
+        poses, ok = positioner.kinematics.link_poses(np.array([tilt, 0.3]))
         assert ok
         _, tilt_pose, table_pose = poses
         in_tilt = np.linalg.inv(tilt_pose) @ table_pose

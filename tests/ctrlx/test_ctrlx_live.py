@@ -23,6 +23,7 @@ from server.ctrlx import (
 )
 from server.mock_ctrlx import Machine, build_app
 from server.runtime import Runtime
+from server.runtime.startup import configured_cell, source_defaults
 from tests.conftest import wait_until
 from tests.ctrlx.helpers import IIWA, KIN12, client, collect, max_gap, running
 
@@ -46,7 +47,7 @@ async def test_unknown_node_is_node_not_found_with_its_address() -> None:
             await c.read_number("motion/axs/nope/state/values/actual/pos")
     assert caught.value.title == "DL_INVALID_ADDRESS"
     assert (
-        caught.value.instance == "/automation/api/v2/nodes/motion/axs/nope/state/values/actual/pos"
+        caught.value.instance == "motion/axs/nope/state/values/actual/pos"
     )
 
 
@@ -220,9 +221,9 @@ async def test_every_request_has_a_timeout() -> None:
 async def test_outage_is_reported_and_recovered_by_the_acquisition() -> None:
     async with running() as mock:
         settings = Settings(ctrlx_url=mock.url, keepalive_s=0.2)
-        runtime = await Runtime.start(settings)
+        runtime = await Runtime.start(configured_cell(settings), source_defaults(settings))
         try:
-            health = runtime.sources[0]
+            health = runtime.healths()[0]
             await wait_until(lambda: health.state == "connected")
             mock.state.faults.outage = True
             await wait_until(lambda: health.state == "error", timeout_s=20)

@@ -41,7 +41,8 @@ async def test_tokens_really_expire() -> None:
 
 async def test_browse_metadata_and_commands() -> None:
     async with running() as mock, client(mock.url) as c:
-        assert await c.browse("") == ["motion", "plc"]
+        # "datalayer" holds the data layer's own nodes, as on a device.
+        assert await c.browse("") == ["datalayer", "motion", "plc"]
         assert await c.browse("motion/grp") == ["iiwa", "kin12", "pos"]
         assert "pos-abs" in await c.browse("motion/axs/kin12_a0/cmd")
         meta = await c.metadata("motion/axs/kin12_a0/cmd/pos-abs")
@@ -116,3 +117,31 @@ def test_command_line_serves_https_and_names_its_ca_file(tmp_path: Path) -> None
             proc.wait(10)
     assert f"https://127.0.0.1:{port}" in line
     assert str(tmp_path / "mock-ctrlx-cert.pem") in line
+
+
+async def test_axes_at_their_own_nodes_are_served_everywhere() -> None:
+    from server.ctrlx import follow
+    from server.mock_ctrlx import AxisGroup, Machine, SimAxis, build_app
+
+    lift = "robots/r1/lift"
+    axes = (SimAxis("j1", "rad", 1.0, 4.0, node=lift), SimAxis("j2", "mm", 200.0, 900.0))
+    machine = Machine(groups=[AxisGroup("r1", axes, ((0.0, 0.0), (1.5, 300.0)))])
+    nodes = [lift, "motion/axs/j2/state/values/actual/pos"]
+    async with running(build_app(machine=machine)) as mock, client(mock.url) as c:
+        assert await c.browse("") == ["datalayer", "motion", "plc", "robots"]
+        assert (await c.metadata(lift))["unit"] == "rad"
+        assert isinstance(await c.read_number(lift), float)
+        read = await c.bulk_read(nodes)
+        assert all(isinstance(read.values[n], float) for n in nodes)
+        async with asyncio.timeout(10):
+            samples = follow(c, nodes, 0.02)
+            sample = await anext(samples)
+            await samples.aclose()
+        assert set(sample.values) == set(nodes)
+        assert all(isinstance(v, float) for v in sample.values.values())
+        await c.write("motion/grp/r1/cmd/pos-abs", "object", {"axsPos": [0.25, 40.0]})
+        async with asyncio.timeout(10):
+            while await c.read_number(lift) != 0.25:
+                await asyncio.sleep(0.05)
+        assert await c.read_number(nodes[1]) == pytest.approx(40.0)
+    assert mock.count("POST", "/automation/api/v2/events") == 1

@@ -1,93 +1,42 @@
 """The mock answers as the published ctrlX OpenAPI descriptions say (validated with openapi-core).
 
-The descriptions are read from ``../shared/specs/ctrlx`` beside the repository.
-Where a description contradicts itself, the smallest correction is applied
-to the loaded document (``ERRATA``); a test proves each one is needed.
+The descriptions and their errata are loaded by ``tests.mock_ctrlx.spec``.
 """
 
 from __future__ import annotations
 
-import copy
 import json
-import warnings
 from collections.abc import AsyncIterator
-from pathlib import Path
 from typing import Any
 from urllib.parse import unquote
 
 import aiohttp
 import pytest
-from openapi_core import Config, OpenAPI
+from openapi_core import OpenAPI
 from openapi_core.testing import MockRequest, MockResponse
 from openapi_schema_validator import OAS30Validator
 
 from server.ctrlx import SseParser, SubscriptionSettings, encode_node_path
 from tests.ctrlx.helpers import KIN12, Mock, running
-
-SPECS = Path(__file__).resolve().parents[2].parent / "shared" / "specs" / "ctrlx"
-DL_FILE, IM_FILE = "datalayer.v2.1.5.openapi.json", "identitymanager.v2.10.0.openapi.json"
-DL, IM = "/automation/api/v2", "/identity-manager/api/v2"
-NODE = DL + "/nodes/{Path}"
-
-
-def _load(name: str) -> dict[str, Any]:
-    path = SPECS / name
-    assert path.is_file(), f"the ctrlX OpenAPI description {path} is missing"
-    document: dict[str, Any] = json.loads(path.read_text())
-    return document
-
-
-RAW_DL = _load(DL_FILE)
-RAW_IM = _load(IM_FILE)
-
-
-def _errata(document: dict[str, Any]) -> dict[str, Any]:
-    """The data-layer description with its self-contradictions corrected.
-
-    * ``Data.value`` says ``type: object``, yet the description's own Data
-      example holds a string, and a double node holds a number.
-    * ``SSE_EventData.value`` says ``type: string``, yet the description's own
-      event-stream example holds objects.
-    * ReadNode's query parameter ``type`` has ``default: 'null'``, outside its
-      own enum (so a read without ``?type=`` would count as invalid).
-    """
-    fixed = copy.deepcopy(document)
-    del _read_type_parameter(fixed)["schema"]["default"]
-    schemas = fixed["components"]["schemas"]
-    del schemas["Data"]["properties"]["value"]["type"]
-    del schemas["SSE_EventData"]["properties"]["value"]["type"]
-    return fixed
-
-
-def _read_type_parameter(document: dict[str, Any]) -> dict[str, Any]:
-    parameters = document["paths"]["/nodes/{Path}"]["get"]["parameters"]
-    found: dict[str, Any] = next(p for p in parameters if p["name"] == "type")
-    return found
-
-
-FIXED_DL = _errata(RAW_DL)
-# The data-layer description fails its own meta-schema ("default: 'null'" outside its
-# enum), so openapi-core's check of the description itself is switched off.
-CONFIG = Config(spec_validator_cls=None)
-DL_API = OpenAPI.from_dict(FIXED_DL, config=CONFIG)
-IM_API = OpenAPI.from_dict(copy.deepcopy(RAW_IM), config=CONFIG)
-
-
-def check_request(api: OpenAPI, request: MockRequest) -> None:
-    """Validate a request we sent (bearer security included)."""
-    with warnings.catch_warnings():
-        # openapi-core cannot evaluate the oauth2 alternative of the security list.
-        warnings.filterwarnings("ignore", "Unsupported scheme type", UserWarning)
-        api.validate_request(request)
-
-
-def component(document: dict[str, Any], name: str) -> OAS30Validator:
-    """A validator for ``#/components/schemas/<name>`` of ``document``."""
-    root = {"$ref": f"#/components/schemas/{name}", "components": document["components"]}
-    return OAS30Validator(root)
+from tests.mock_ctrlx.spec import (
+    DL,
+    DL_API,
+    FIXED_DL,
+    IM,
+    IM_API,
+    NODE,
+    RAW_DL,
+    _read_type_parameter,
+    check_request,
+    component,
+)
 
 
 def test_errata_are_needed() -> None:
+    one = RAW_DL["paths"]["/events/{SubscriptionName}"]
+    assert "404" not in one["get"]["responses"]
+    assert "404" in one["delete"]["responses"] and "404" in one["put"]["responses"]
+    assert "within one minute" in RAW_DL["paths"]["/events"]["post"]["description"]
     schema = _read_type_parameter(RAW_DL)["schema"]
     assert not OAS30Validator(schema).is_valid(schema["default"])
     data_example = RAW_DL["components"]["schemas"]["Data"]["example"]

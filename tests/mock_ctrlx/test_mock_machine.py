@@ -50,9 +50,9 @@ def test_commands_move_there_and_hold() -> None:
     duration = machine.command("kin12", [10.0, -5.0], t=100.0)
     assert duration > 0.0
     assert machine.group_positions("kin12", 100.0 + duration + 1.0) == pytest.approx([10.0, -5.0])
-    machine.command_axis("iiwa_a4", -30.0, t=200.0)
+    held = machine.command_axis("iiwa_a4", -30.0, t=200.0) + 1.0  # the demo resumes later
     before = machine.group_positions("iiwa", 200.0)
-    after = machine.group_positions("iiwa", 300.0)
+    after = machine.group_positions("iiwa", 200.0 + held)
     assert after[3] == pytest.approx(-30.0)
     assert np.delete(after, 3) == pytest.approx(np.delete(before, 3))
     with pytest.raises(ValueError, match="outside"):
@@ -61,3 +61,70 @@ def test_commands_move_there_and_hold() -> None:
     assert machine.group_positions("kin12", 1.0) == pytest.approx(
         Machine().group_positions("kin12", 1.0)
     )
+
+
+@pytest.mark.parametrize("dwell_s", [0.5, 2.0])
+def test_a_commanded_move_returns_to_the_demo_cycle_smoothly(dwell_s: float) -> None:
+    machine, fresh, t0 = Machine(command_dwell_s=dwell_s), Machine(), 1000.0
+    group = machine.groups["iiwa"]
+    duration = machine.command("iiwa", [10.0, -20.0, 30.0, -40.0, 50.0, 60.0, -70.0], t=t0)
+    arrived = t0 + duration
+    assert machine.group_positions("iiwa", arrived + 0.9 * dwell_s) == pytest.approx(
+        [10.0, -20.0, 30.0, -40.0, 50.0, 60.0, -70.0]
+    )
+    # Back on the cycle for good: from some time on it is the demo cycle, shifted in time.
+    commanded = machine._commanded["iiwa"]
+    resume = commanded.resume_t
+    assert resume > arrived + dwell_s
+    for dt in (0.0, 0.77, 3.1, 11.0, 40.0):
+        assert machine.group_positions("iiwa", resume + dt) == pytest.approx(
+            fresh.group_positions("iiwa", dt)
+        )
+    # Continuous and within the velocity limits all the way (no jump back to the cycle).
+    step = 0.005
+    q = np.array([machine.group_positions("iiwa", t) for t in np.arange(t0, resume + 5, step)])
+    v_max = np.array([a.v_max for a in group.axes])
+    assert np.all(np.abs(np.diff(q, axis=0)) <= v_max * step * (1 + 1e-9))
+
+
+def test_a_new_command_during_the_return_starts_from_where_the_group_is() -> None:
+    machine = Machine(command_dwell_s=0.1)
+    duration = machine.command("kin12", [20.0, 20.0], t=0.0)
+    t = duration + 0.1 + 0.2  # on the way back to the first demo target
+    here = machine.group_positions("kin12", t)
+    assert not np.allclose(here, [20.0, 20.0]) and not np.allclose(here, [0.0, 0.0])
+    machine.command("kin12", [-10.0, 5.0], t=t)
+    assert machine.group_positions("kin12", t) == pytest.approx(here)
+
+
+def test_axes_in_any_unit_and_at_any_node_are_served() -> None:
+    from server.mock_ctrlx import UNITS, AxisGroup, NodeTree, SimAxis
+
+    axes = (
+        SimAxis("j1", "rad", 1.0, 4.0, -3.0, 3.0, node="plc/app/Application/sym/PLC_PRG/rJ1"),
+        SimAxis("j2", "m", 0.5, 2.0, 0.0, 1.0, node="/robots/r1/lift/"),
+        SimAxis("j3", "deg", 90.0, 300.0),
+    )
+    machine = Machine(groups=[AxisGroup("r1", axes, ((0.0, 0.0, 0.0), (1.0, 0.5, 45.0)))])
+    tree = NodeTree(machine)
+    assert [a.position_node for a in axes] == [
+        "plc/app/Application/sym/PLC_PRG/rJ1",
+        "robots/r1/lift",
+        "motion/axs/j3/state/values/actual/pos",
+    ]
+    positions = machine.snapshot(2.0)
+    for axis in axes:
+        assert tree.read(axis.position_node, positions) == {
+            "type": "double",
+            "value": positions[axis.name],
+        }
+        assert tree.metadata(axis.position_node)["unit"] == axis.unit
+    assert tree.browse("robots/r1") == ["lift"]
+    assert "rJ1" in tree.browse("plc/app/Application/sym/PLC_PRG")
+    assert tree.browse("motion/axs") == ["j3"]  # axes at their own node have no motion/axs
+    assert set(UNITS) == {"deg", "rad", "mm", "m"}
+    with pytest.raises(ValueError, match="unit"):
+        SimAxis("bad", "inch", 1.0, 1.0)  # type: ignore[arg-type]
+    twice = (SimAxis("a", "deg", 1, 1, node="x/y"), SimAxis("b", "deg", 1, 1, node="x/y"))
+    with pytest.raises(ValueError, match="served twice: x/y"):
+        NodeTree(Machine(groups=[AxisGroup("g", twice, ((0.0, 0.0),))]))

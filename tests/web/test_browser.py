@@ -107,4 +107,4 @@ def test_page_shows_moving_robots(server_url: str) -> None:
         and (urlsplit(url).hostname, urlsplit(url).port) != (origin.hostname, origin.port)
     ]
     assert not foreign, f"requests outside {server_url}: {foreign}"
-    assert any(url.endswith(".glb") for url in requests), "no mesh was requested"
+    assert any(urlsplit(url).path.endswith(".glb") for url in requests), "no mesh was requested"

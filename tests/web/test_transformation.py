@@ -7,10 +7,9 @@ from typing import Any
 import aiohttp
 import numpy as np
 
-from server.cell import default_cell
 from server.config import Settings
 from server.kinematics import matrix_from_pose7, matrix_from_rpy
-from tests.conftest import running_mock, running_server
+from tests.conftest import demo_cell, running_mock, running_server
 
 
 def sample_joints(name: str, rng: np.random.Generator, count: int) -> np.ndarray:
@@ -35,7 +34,7 @@ async def test_ik_of_fk_returns_to_the_same_tcp_for_every_robot() -> None:
         running_server(Settings(ctrlx_url=url)) as base,
         aiohttp.ClientSession() as http,
     ):
-        for robot in default_cell():
+        for robot in demo_cell().robots:
             api = f"{base}/api/robots/{robot.name}"
             q = sample_joints(robot.name, rng, 5)
             status, fk = await post(http, api + "/fk", {"joints": q.tolist()})
@@ -64,7 +63,7 @@ def expected_pose(tcp7: list[float]) -> np.ndarray:
 
 async def test_iiwa_ik_lists_the_starting_configuration_among_all_eight() -> None:
     rng = np.random.default_rng(3)
-    robot = next(r for r in default_cell() if r.name == "iiwa7")
+    robot = next(r for r in demo_cell().robots if r.name == "iiwa7")
     q = sample_joints("iiwa7", rng, 1)[0]
     _, tcp, _ = robot.poses(q)
     async with (
@@ -124,3 +123,22 @@ def _json(body: Any) -> str:
     import json
 
     return json.dumps(body)  # allow_nan: send a literal NaN as a sloppy client would
+
+
+async def test_fk_with_links_gives_every_link_pose_and_the_tcp_as_the_stream_does() -> None:
+    robot = next(r for r in demo_cell().robots if r.name == "iiwa7")
+    q = sample_joints("iiwa7", np.random.default_rng(5), 3)
+    async with (
+        running_mock() as (_, url),
+        running_server(Settings(ctrlx_url=url)) as base,
+        aiohttp.ClientSession() as http,
+    ):
+        body = {"joints": q.tolist(), "links": True}
+        status, fk = await post(http, f"{base}/api/robots/iiwa7/fk", body)
+        too_many = {"joints": [q[0].tolist()] * 65, "links": True}
+        status_many, _ = await post(http, f"{base}/api/robots/iiwa7/fk", too_many)
+    assert status == 200 and status_many == 422
+    links, tcp, _ = robot.poses(q)
+    np.testing.assert_allclose(matrix_from_pose7(np.array(fk["links"])), links, atol=1e-12)
+    np.testing.assert_allclose(np.array(fk["links"])[:, -1], np.array(fk["tcp"]), atol=1e-12)
+    np.testing.assert_allclose(matrix_from_pose7(np.array(fk["tcp"])), tcp, atol=1e-12)

@@ -1,0 +1,318 @@
+"""Read a TOML cell file into SI robots and data sources; every mistake names its key.
+
+``load_cell`` validates the file against ``server.cell.schema`` (unknown keys,
+wrong units, ...), then checks what a schema cannot: names that must be
+unique, sources that must exist, joint counts against the kinematics, files
+(URDF, meshes, CA) that must be there, and password variables that must be
+set. All problems are gathered into one CellError, one line each:
+``<file>: <key path>: <reason>``, e.g. ``robot[2].joints[3].unit``.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import ValidationError
+
+from ..kinematics import pose7_from_matrix
+from . import schema
+from .families import Built, SpecError, build, pose_matrix
+from .robot import Joint, Robot
+
+DEFAULT_COMMAND_NODE = "motion/grp/{robot}/cmd/pos-abs"
+
+
+class CellError(Exception):
+    """A cell file that cannot be used; ``problems`` are ``(key path, reason)`` pairs."""
+
+    def __init__(self, path: Path, problems: list[tuple[str, str]]) -> None:
+        self.path = path
+        self.problems = problems
+        super().__init__("\n".join(f"{path}: {key}: {reason}" for key, reason in problems))
+
+
+@dataclass(frozen=True)
+class Source:
+    """A data source of the cell, ready to connect to (``url`` None: an embedded mock)."""
+
+    name: str
+    url: str | None
+    user: str = "boschrexroth"
+    password: str = field(default="boschrexroth", repr=False)
+    mode: Literal["subscribe", "poll", "get"] | None = None
+    api: Literal["v2", "v1"] = "v2"
+    ca: Path | None = None
+    insecure: bool = False
+    period_s: float | None = None
+    allow_commands: bool = False
+
+
+@dataclass(frozen=True)
+class Cell:
+    """Every robot and data source of one cell file."""
+
+    path: Path | None
+    sources: tuple[Source, ...]
+    robots: tuple[Robot, ...]
+    spec: schema.Cell | None = field(default=None, repr=False, compare=False)
+
+    def robots_of(self, source: str) -> list[Robot]:
+        """The robots driven by ``source``, in cell order."""
+        return [r for r in self.robots if r.source == source]
+
+
+def load_cell(path: Path, env: Mapping[str, str] | None = None) -> Cell:
+    """The cell described by the TOML file at ``path``; raises CellError."""
+    env = os.environ if env is None else env
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CellError(path, [("(file)", "no such file")]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CellError(path, [("(file)", f"cannot read it: {exc}")]) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
+    try:
+        spec = schema.Cell.model_validate(raw)
+    except ValidationError as exc:
+        raise CellError(path, [_pydantic_problem(e) for e in exc.errors()]) from None
+    return _Builder(path, spec, env).cell()
+
+
+def _pydantic_problem(error: Any) -> tuple[str, str]:
+    loc = [part for part in error["loc"] if part not in schema.KINEMATICS_TYPES]
+    key = ""
+    for part in loc:
+        key += f"[{part}]" if isinstance(part, int) else (f".{part}" if key else str(part))
+    kind, msg = error["type"], error["msg"]
+    if kind == "extra_forbidden":
+        msg = "unknown key"
+    elif kind == "missing":
+        msg = "required key is missing"
+    elif kind == "union_tag_invalid":
+        msg = f"type must be one of {', '.join(schema.KINEMATICS_TYPES)}"
+    elif kind == "literal_error":
+        msg = f"{msg[len('Input should be ') :]}, not {error['input']!r}"
+        msg = f"must be {msg}"
+    elif kind == "union_tag_not_found":
+        msg = f"needs a 'type' ({', '.join(schema.KINEMATICS_TYPES)})"
+    return key or "(top level)", msg
+
+
+class _Builder:
+    """Checks across keys and builds the SI objects, collecting every problem."""
+
+    def __init__(self, path: Path, spec: schema.Cell, env: Mapping[str, str]) -> None:
+        self.path = path
+        self.dir = path.resolve().parent
+        self.spec = spec
+        self.env = env
+        self.problems: list[tuple[str, str]] = []
+
+    def cell(self) -> Cell:
+        self._unique("source", [s.name for s in self.spec.source])
+        self._unique("robot", [r.name for r in self.spec.robot])
+        sources = [self._source(f"source[{i}]", s) for i, s in enumerate(self.spec.source)]
+        known = {s.name for s in self.spec.source}
+        robots = []
+        for i, robot in enumerate(self.spec.robot):
+            if robot.source not in known:
+                self.problems.append(
+                    (
+                        f"robot[{i}].source",
+                        f"no source named {robot.source!r} (sources: {', '.join(sorted(known))})",
+                    )
+                )
+            built = self._robot(f"robot[{i}]", robot)
+            if built is not None:
+                robots.append(built)
+        if self.problems:
+            raise CellError(self.path, self.problems)
+        return Cell(self.path, tuple(s for s in sources if s), tuple(robots), self.spec)
+
+    def _unique(self, kind: str, names: list[str]) -> None:
+        first: dict[str, int] = {}
+        for i, name in enumerate(names):
+            if name in first:
+                self.problems.append(
+                    (f"{kind}[{i}].name", f"duplicate name {name!r} (also {kind}[{first[name]}])")
+                )
+            first.setdefault(name, i)
+
+    def resolve(self, relative: str) -> Path:
+        """A path from the file, relative to the cell file's folder."""
+        return (self.dir / Path(relative).expanduser()).resolve()
+
+    def _source(self, key: str, spec: schema.Source) -> Source | None:
+        problems = len(self.problems)
+        password = "boschrexroth"
+        if spec.url is not None:
+            if spec.password_env is None:
+                self.problems.append(
+                    (f"{key}.password_env", "required with a url (the password comes from it)")
+                )
+            elif spec.password_env not in self.env:
+                self.problems.append(
+                    (
+                        f"{key}.password_env",
+                        f"environment variable {spec.password_env} is not set",
+                    )
+                )
+            else:
+                password = self.env[spec.password_env]
+        ca = None if spec.ca is None else self.resolve(spec.ca)
+        if ca is not None and not ca.is_file():
+            self.problems.append((f"{key}.ca", f"no such file: {ca}"))
+        if len(self.problems) > problems:
+            return None
+        return Source(
+            name=spec.name,
+            url=spec.url,
+            user=spec.user,
+            password=password,
+            mode=spec.mode,
+            api=spec.api,
+            ca=ca,
+            insecure=spec.insecure,
+            period_s=None if spec.period_ms is None else spec.period_ms / 1000.0,
+            allow_commands=spec.allow_commands,
+        )
+
+    def _robot(self, key: str, spec: schema.Robot) -> Robot | None:
+        try:
+            built = build(spec.kinematics, self.dir)
+        except SpecError as exc:
+            self.problems.append((f"{key}.kinematics.{exc.key}", str(exc)))
+            return None
+        joints = self._joints(key, spec, built)
+        meshes = self._meshes(key, spec, built)
+        targets = self._targets(key, spec, built)
+        if joints is None or meshes is None or targets is None:
+            return None
+        base = pose7_from_matrix(pose_matrix(spec.base))
+        return Robot(
+            name=spec.name,
+            family=built.family,
+            kinematics=built.kinematics,
+            joints=joints,
+            link_names=built.link_names,
+            source=spec.source,
+            base=tuple(float(x) for x in base),
+            meshes=meshes,
+            tcp_is_last_link=built.tcp_is_last_link,
+            command_node=spec.command_node or DEFAULT_COMMAND_NODE.format(robot=spec.name),
+            demo_targets=targets,
+        )
+
+    def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:
+        n = len(built.joint_names)
+        entries = spec.joints
+        if len(entries) != n:
+            names = ", ".join(built.joint_names)
+            self.problems.append(
+                (
+                    f"{key}.joints",
+                    f"the {built.family} kinematics has {n} joints ({names}); {len(entries)} given",
+                )
+            )
+            return None
+        named = [e.joint is not None for e in entries]
+        order: list[int] | None = list(range(n))
+        if any(named):
+            order = self._joint_order(key, entries, built.joint_names)
+        if order is None:
+            return None
+        joints: list[Joint] = [None] * n  # type: ignore[list-item]
+        ok = True
+        for k, (entry, slot) in enumerate(zip(entries, order, strict=True)):
+            linear = built.linear[slot]
+            if linear != (entry.unit in ("mm", "m")):
+                kind, units = ("linear", "mm or m") if linear else ("rotary", "deg or rad")
+                self.problems.append(
+                    (
+                        f"{key}.joints[{k}].unit",
+                        f"joint {built.joint_names[slot]!r} is {kind}: unit must be {units}, "
+                        f"not {entry.unit!r}",
+                    )
+                )
+                ok = False
+            if entry.scale == 0.0:
+                self.problems.append((f"{key}.joints[{k}].scale", "must not be 0"))
+                ok = False
+            joints[slot] = Joint(
+                name=built.joint_names[slot],
+                node=entry.node.strip("/"),
+                source_unit=entry.unit,
+                scale=entry.scale,
+                offset=entry.offset,
+                limits=built.limits[slot],
+            )
+        return tuple(joints) if ok else None
+
+    def _joint_order(
+        self, key: str, entries: list[schema.Joint], names: tuple[str, ...]
+    ) -> list[int] | None:
+        order: list[int] = []
+        for k, entry in enumerate(entries):
+            if entry.joint is None:
+                self.problems.append(
+                    (f"{key}.joints[{k}].joint", "name every joint or none of them")
+                )
+                return None
+            if entry.joint not in names:
+                self.problems.append(
+                    (
+                        f"{key}.joints[{k}].joint",
+                        f"no movable joint {entry.joint!r} (joints: {', '.join(names)})",
+                    )
+                )
+                return None
+            if names.index(entry.joint) in order:
+                self.problems.append((f"{key}.joints[{k}].joint", f"{entry.joint!r} given twice"))
+                return None
+            order.append(names.index(entry.joint))
+        return order
+
+    def _meshes(self, key: str, spec: schema.Robot, built: Built) -> tuple[Path | None, ...] | None:
+        if spec.mesh_dir is None:
+            return built.meshes or (None,) * len(built.link_names)
+        if built.meshes:
+            self.problems.append(
+                (f"{key}.mesh_dir", "URDF robots take their meshes from the URDF's visuals")
+            )
+            return None
+        folder = self.resolve(spec.mesh_dir)
+        if not folder.is_dir():
+            self.problems.append((f"{key}.mesh_dir", f"no such folder: {folder}"))
+            return None
+        missing = [n for n in built.link_names if not (folder / f"{n}.glb").is_file()]
+        if missing:
+            self.problems.append(
+                (
+                    f"{key}.mesh_dir",
+                    f"missing mesh for link(s) {', '.join(missing)}: expected "
+                    + ", ".join(str(folder / f"{n}.glb") for n in missing),
+                )
+            )
+            return None
+        return tuple(folder / f"{n}.glb" for n in built.link_names)
+
+    def _targets(
+        self, key: str, spec: schema.Robot, built: Built
+    ) -> tuple[tuple[float, ...], ...] | None:
+        if spec.demo_targets is None:
+            return ()
+        n = len(built.joint_names)
+        for k, target in enumerate(spec.demo_targets):
+            if len(target) != n:
+                self.problems.append(
+                    (f"{key}.demo_targets[{k}]", f"needs {n} values, one per joint")
+                )
+                return None
+        return tuple(tuple(t) for t in spec.demo_targets)

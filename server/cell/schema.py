@@ -1,0 +1,157 @@
+"""The cell file's schema: what a TOML cell may say, as pydantic models (see docs/cell.md).
+
+Units as people write them: lengths in millimetres, angles in degrees (keys
+ending in ``_deg``); ``limits`` are degrees for rotary and millimetres for
+linear joints. Joint values are in whatever unit their data-layer node
+reports. ``server.cell.load`` turns a validated file into SI objects.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Unit = Literal["deg", "rad", "mm", "m"]
+Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Range = Annotated[list[float], Field(min_length=2, max_length=2)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Pose(_Strict):
+    """A placement: translation ``xyz`` (mm), then fixed-axis roll, pitch, yaw (deg)."""
+
+    xyz: Vec3 = [0.0, 0.0, 0.0]
+    rpy_deg: Vec3 = [0.0, 0.0, 0.0]
+
+
+class Source(_Strict):
+    """One data layer: a ctrlX device at ``url``, or (no ``url``) an embedded mock."""
+
+    name: Name
+    url: str | None = None
+    user: str = "boschrexroth"
+    password_env: str | None = None
+    """Environment variable holding the password; required with ``url``."""
+    mode: Literal["subscribe", "poll", "get"] | None = None
+    """As ``--mode``; default: the server's setting (subscribe)."""
+    api: Literal["v2", "v1"] = "v2"
+    ca: str | None = None
+    """PEM file of certificates to trust (relative paths: relative to the cell file)."""
+    insecure: bool = False
+    period_ms: Annotated[float, Field(gt=0.0, le=10_000.0)] | None = None
+    """Sample period; default: the server's setting (20 ms)."""
+    allow_commands: bool = False
+    """Let the page move this source's robots (embedded mocks always may)."""
+
+
+class Joint(_Strict):
+    """A joint's data-layer node; SI value = (value x scale + offset) converted from ``unit``."""
+
+    node: Annotated[str, Field(min_length=1)]
+    unit: Unit = "deg"
+    scale: Finite = 1.0
+    offset: Finite = 0.0
+    joint: str | None = None
+    """The kinematics' joint this entry drives (URDF joint name); default: by position."""
+
+
+class Type12(_Strict):
+    """Seed 000's five-bar mechanism; link lengths in mm."""
+
+    type: Literal["type12"]
+    L1: Annotated[float, Field(gt=0.0)] = 200.0
+    L2: Annotated[float, Field(gt=0.0)] = 150.0
+    L3: Annotated[float, Field(gt=0.0)] = 100.0
+    L4: Annotated[float, Field(gt=0.0)] = 200.0
+    L5: Annotated[float, Field(gt=0.0)] = 100.0
+    limits: list[Range] | None = None
+    """Per joint [lower, upper] in degrees."""
+
+
+class DH(_Strict):
+    """A revolute Denavit-Hartenberg chain; ``d``/``a`` in mm, angles in degrees."""
+
+    type: Literal["dh"]
+    convention: Literal["standard", "modified"] = "standard"
+    d: list[Finite] = Field(min_length=1, max_length=16)
+    a: list[Finite] = Field(min_length=1, max_length=16)
+    alpha_deg: list[Finite] = Field(min_length=1, max_length=16)
+    offset_deg: list[Finite] | None = None
+    limits: list[Range] | None = None
+    """Per joint [lower, upper] in degrees."""
+    solver: Literal["numeric", "iiwa"] = "numeric"
+    """``iiwa``: seed 004's analytic inverse (8 configurations); the table must be an LBR iiwa."""
+
+
+class Axis(_Strict):
+    """Seed 003's ``axis_group_add_axis`` parameters."""
+
+    name: Name
+    parent: str = ""
+    """Parent axis; empty: the group base."""
+    pose: Pose = Pose()
+    """Zero-position pose in the parent frame."""
+    type: Literal["rotary", "linear"] = "rotary"
+    """Rotary about +Z or linear along +Z."""
+    v_limit: Annotated[float, Field(gt=0.0)] = 1.0
+    """Velocity limit in rad/s or m/s (seed 003)."""
+    a_limit: Annotated[float, Field(gt=0.0)] = 1.0
+    """Acceleration limit in rad/s^2 or m/s^2 (seed 003)."""
+    limits: Range | None = None
+    """[lower, upper] in degrees (rotary) or mm (linear); default: unlimited."""
+    axis_index: Annotated[int, Field(ge=0, le=5)] | None = None
+    link: Name | None = None
+    """The link (mesh) this axis moves; default: the axis name."""
+
+
+class AxisGroup(_Strict):
+    """A MotionPlus axis group (seed 003); joints in axis-index order."""
+
+    type: Literal["axis_group"]
+    pose: Pose = Pose()
+    """The group base in the robot base frame."""
+    axes: list[Axis] = Field(min_length=1, max_length=6)
+
+
+class Urdf(_Strict):
+    """A URDF file; joints are its movable joints in file order."""
+
+    type: Literal["urdf"]
+    file: str
+    packages: dict[str, str] = {}
+    """``package://name/...`` -> folder (relative paths: relative to the cell file)."""
+    tip: str | None = None
+    """The TCP link; default: the last link of the longest chain."""
+
+
+Kinematics = Annotated[Type12 | DH | AxisGroup | Urdf, Field(discriminator="type")]
+KINEMATICS_TYPES = ("type12", "dh", "axis_group", "urdf")
+
+
+class Robot(_Strict):
+    """A robot: where it stands, how it moves, and which nodes drive its joints."""
+
+    name: Name
+    source: str
+    base: Pose = Pose()
+    kinematics: Kinematics
+    joints: list[Joint] = Field(min_length=1, max_length=32)
+    mesh_dir: str | None = None
+    """Folder of ``<link>.glb`` meshes (not for URDF, whose visuals are converted)."""
+    command_node: str | None = None
+    """Node taking ``{"axsPos": [...]}`` moves; default ``motion/grp/<name>/cmd/pos-abs``."""
+    demo_targets: list[list[Finite]] | None = None
+    """Positions (node units) an embedded mock cycles through; default: drawn within limits."""
+
+
+class Cell(_Strict):
+    """A whole cell file."""
+
+    source: list[Source] = Field(min_length=1)
+    robot: list[Robot] = Field(min_length=1)

@@ -1,0 +1,147 @@
+"""The running service: one source (mock, client, acquisition) per data layer of the cell.
+
+It also swaps in a reloaded cell, restarting only the sources it changes,
+and moves robots on request where that is allowed.
+"""
+
+from __future__ import annotations
+
+import logging
+import secrets
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..cell import Cell, Robot
+from ..ctrlx import DataLayerError
+from ..stream import PROTOCOL_VERSIONS, Hub, Message, SourceHealth, cell_message, hello_message
+from .source import RunningSource, SourceDefaults, fingerprint, start_source
+
+log = logging.getLogger(__name__)
+
+__all__ = ["MoveError", "Runtime", "SourceDefaults"]
+
+
+class MoveError(ValueError):
+    """A move that cannot be commanded (not allowed, outside the limits, device refused)."""
+
+    def __init__(self, status: int, reason: str) -> None:
+        super().__init__(reason)
+        self.status = status
+
+
+@dataclass
+class Runtime:
+    """The hub every viewer reads, and the sources feeding it."""
+
+    cell: Cell
+    defaults: SourceDefaults = field(default_factory=SourceDefaults)
+    hub: Hub = field(default_factory=Hub)
+    sources: dict[str, RunningSource] = field(default_factory=dict)
+    cell_error: str | None = None
+    """Why the cell file on disk could not be loaded (the running cell stays)."""
+    session: str = field(default_factory=lambda: secrets.token_hex(8))
+
+    @classmethod
+    async def start(cls, cell: Cell, defaults: SourceDefaults | None = None) -> Runtime:
+        """Start every source of ``cell``."""
+        runtime = cls(cell, defaults or SourceDefaults())
+        await runtime.apply(cell)
+        return runtime
+
+    async def apply(self, cell: Cell) -> None:
+        """Run ``cell``: restart the sources it changes, keep the others, tell every viewer."""
+        indices = {robot.name: i for i, robot in enumerate(cell.robots)}
+        wanted = {s.name: s for s in cell.sources}
+        kept: dict[str, RunningSource] = {}
+        for name, running in list(self.sources.items()):
+            config = wanted.get(name)
+            robots = cell.robots_of(name)
+            if config is not None and running.fingerprint == fingerprint(config, robots):
+                kept[name] = running
+            else:
+                log.info("source %s: stopping (%s)", name, "changed" if config else "removed")
+                await running.stop()
+        started: list[RunningSource] = []
+        for name, config in wanted.items():
+            if name not in kept:
+                running = await start_source(config, cell.robots_of(name), self.hub, self.defaults)
+                started.append(running)
+                kept[name] = running
+        # From here on nothing awaits: viewers get the new hello before any new frame.
+        for name, running in kept.items():
+            running.robots = cell.robots_of(name)
+            running.acquisition.set_robots(running.robots, indices)
+        self.sources = {s.name: kept[s.name] for s in cell.sources}
+        self.cell, self.cell_error = cell, None
+        self.hub.restart()
+        self._publish_cell()
+        for running in self.sources.values():
+            running.acquisition.publish_status()
+        for running in started:
+            running.begin()
+
+    def reject(self, error: str) -> None:
+        """A new version of the cell file is unusable: keep running, say why."""
+        self.cell_error = error
+        self.hub.publish("cell", Message(cell_message(self._path, error)))
+
+    async def stop(self) -> None:
+        """Stop every source."""
+        for running in self.sources.values():
+            await running.stop()
+        self.sources = {}
+
+    @property
+    def robots(self) -> tuple[Robot, ...]:
+        """Every robot of the running cell, in hello order."""
+        return self.cell.robots
+
+    def robot(self, name: str) -> Robot | None:
+        """The robot called ``name``, if any."""
+        return next((r for r in self.cell.robots if r.name == name), None)
+
+    def healths(self) -> list[SourceHealth]:
+        """The health of every source, in cell order."""
+        return [s.health for s in self.sources.values()]
+
+    def commandable(self, robot: Robot) -> bool:
+        """Whether moves may be sent for ``robot``: embedded mock, or allowed by flag or cell."""
+        source = self.sources.get(robot.source)
+        return source is not None and (source.commandable or self.defaults.allow_commands)
+
+    async def move(self, robot: Robot, q: list[float]) -> None:
+        """Command a synchronised move of ``robot`` to joints ``q`` (rad or m, hello order)."""
+        if not self.commandable(robot):
+            raise MoveError(
+                403,
+                f"{robot.name} is driven by a controller; start with --allow-commands to move it",
+            )
+        target = np.asarray(q, dtype=np.float64)
+        if target.shape != (len(robot.joints),) or not np.isfinite(target).all():
+            raise MoveError(422, f"{robot.name} needs {len(robot.joints)} finite joint values")
+        outside = [
+            j.name
+            for j, value in zip(robot.joints, target, strict=True)
+            if j.limits is not None and not j.limits[0] <= value <= j.limits[1]
+        ]
+        if outside:
+            raise MoveError(422, f"outside the joint limits: {', '.join(outside)}")
+        values = robot.from_si(target).tolist()
+        client = self.sources[robot.source].client
+        try:
+            await client.write(robot.command_node, "object", {"axsPos": values})
+        except DataLayerError as exc:
+            raise MoveError(502, f"the data layer refused the move: {exc}") from exc
+        log.info("robot %s: move to %s commanded", robot.name, np.round(values, 3).tolist())
+
+    @property
+    def _path(self) -> str | None:
+        return None if self.cell.path is None else str(self.cell.path)
+
+    def _publish_cell(self) -> None:
+        infos = [r.info(self.commandable(r)) for r in self.cell.robots]
+        for protocol in PROTOCOL_VERSIONS:
+            hello = hello_message(infos, self.session, protocol)
+            self.hub.publish(f"hello:{protocol}", Message(hello), protocol=protocol)
+        self.hub.publish("cell", Message(cell_message(self._path, self.cell_error)))

@@ -1,0 +1,40 @@
+"""Reload on save: when the cell file changes on disk, run the new version if it is valid."""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Callable
+from pathlib import Path
+
+from watchfiles import awatch
+
+from ..cell import Cell, CellError
+from . import Runtime
+
+log = logging.getLogger(__name__)
+
+
+async def follow_cell_file(
+    runtime: Runtime, path: Path, load: Callable[[], Cell], stop: asyncio.Event
+) -> None:
+    """Watch ``path`` until ``stop`` is set; apply each valid version, report each invalid one.
+
+    The folder is watched rather than the file: editors often save by
+    writing a new file and renaming it over the old one.
+    """
+    target = path.resolve()
+    async for changes in awatch(target.parent, stop_event=stop, debounce=200, step=50):
+        if not any(Path(changed).resolve() == target for _, changed in changes):
+            continue
+        try:
+            # Parsing a URDF or converting meshes may take a while: not on the event loop.
+            cell = await asyncio.to_thread(load)
+        except CellError as exc:
+            log.error(
+                "cell file changed but cannot be used; still running the previous one:\n%s", exc
+            )
+            runtime.reject(str(exc))
+            continue
+        log.info("cell file %s changed: reloading", path)
+        await runtime.apply(cell)

@@ -1,0 +1,53 @@
+"""From settings to a cell and source defaults: what ``python -m server`` and the app start with."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from ..cell import Cell, CellError, load_cell
+from ..config import Settings
+from ..paths import DEMO_CELL
+from .source import SourceDefaults
+
+
+def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
+    """The cell file ``path`` (default: the settings', else the demo cell), ``--ctrlx`` applied.
+
+    ``--ctrlx URL`` (with ``LINKVIEW_CTRLX_*``) points a one-source cell at a
+    controller, which is how the demo cell meets real hardware without a file.
+    """
+    return with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+
+
+def with_controller(cell: Cell, settings: Settings) -> Cell:
+    """``cell`` with its one source pointed at ``--ctrlx`` (unchanged without it)."""
+    if settings.ctrlx_url is None:
+        return cell
+    if len(cell.sources) != 1:
+        raise CellError(
+            cell.path or Path("(cell)"),
+            [("source", "--ctrlx needs a cell with one source; give each source its url")],
+        )
+    source = dataclasses.replace(
+        cell.sources[0],
+        url=settings.ctrlx_url,
+        user=settings.ctrlx_user,
+        password=settings.ctrlx_password.get_secret_value(),
+        api=settings.ctrlx_api,
+        ca=settings.ctrlx_ca,
+        insecure=settings.insecure,
+        mode=settings.ctrlx_mode,
+    )
+    return dataclasses.replace(cell, sources=(source,))
+
+
+def source_defaults(settings: Settings) -> SourceDefaults:
+    """What every source of the cell inherits from the settings."""
+    return SourceDefaults(
+        period_s=settings.poll_interval_s,
+        mode=settings.ctrlx_mode,
+        keepalive_s=settings.keepalive_s,
+        timeout_s=settings.request_timeout_s,
+        allow_commands=settings.allow_commands,
+    )

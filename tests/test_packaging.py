@@ -1,0 +1,71 @@
+"""A built wheel, installed in a fresh venv away from the checkout, serves the page and meshes."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+from tests.conftest import free_port
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_wheel_serves_the_page_and_a_mesh(tmp_path: Path) -> None:
+    dist = tmp_path / "dist"
+    subprocess.run(
+        [sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", str(dist)],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        timeout=300,
+    )
+    (wheel,) = dist.glob("linkview-*.whl")
+    venv = tmp_path / "venv"
+    # The venv sees the installed dependencies but not the checkout: `server` must come
+    # from the wheel, static files and meshes included.
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    python = str(venv / "bin" / "python")
+    pip = [python, "-m", "pip", "install", "-q", "--no-deps", str(wheel)]
+    subprocess.run(pip, check=True, capture_output=True, timeout=300)
+    where = subprocess.run(
+        [python, "-c", "import server; print(server.__file__)"],
+        cwd=tmp_path,
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    assert str(venv) in where, f"server imported from {where}, not the wheel"
+
+    port = free_port()
+    log = (tmp_path / "server.log").open("wb")
+    proc = subprocess.Popen(
+        [python, "-m", "server", "--port", str(port)], cwd=tmp_path, stdout=log, stderr=log
+    )
+    base = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                with urllib.request.urlopen(f"{base}/", timeout=2) as resp:
+                    page = resp.read().decode()
+                    break
+            except OSError:
+                assert proc.poll() is None, (tmp_path / "server.log").read_text()
+                assert time.monotonic() < deadline, "the installed server did not answer"
+                time.sleep(0.2)
+        assert resp.status == 200 and "<script type=\"module\"" in page
+        with urllib.request.urlopen(f"{base}/static/js/main.js", timeout=5) as resp:
+            assert resp.status == 200
+        with urllib.request.urlopen(f"{base}/api/robots", timeout=5) as resp:
+            robots = json.load(resp)
+        mesh = robots[0]["links"][0]["mesh"]
+        with urllib.request.urlopen(base + mesh, timeout=5) as resp:
+            assert resp.status == 200 and resp.read(4) == b"glTF"
+    finally:
+        proc.terminate()
+        proc.wait(10)
+        log.close()
