@@ -1,6 +1,6 @@
 """Logins per minute while the device's tokens (or its login) misbehave.
 
-Runs the whole acquisition (``Runtime.start``: client, follow(), acquisition
+Runs the whole acquisition (``Runtime.start`` of the demo cell: client, follow(), acquisition
 with its retries) against the fake device of tests/ctrlx/fake_device.py, one
 token fault at a time, and counts what reached the device: login attempts,
 tokens issued, event streams opened, and frames per second per robot. A
@@ -29,6 +29,7 @@ from _report import markdown_table, write_section  # noqa: E402
 
 from server.config import Settings  # noqa: E402
 from server.runtime import Runtime  # noqa: E402
+from server.runtime.startup import configured_cell, source_defaults  # noqa: E402
 from tests.ctrlx.fake_device import Behaviour, FakeDevice, serving  # noqa: E402
 
 
@@ -75,13 +76,13 @@ async def measure(fault: Fault, seconds: float) -> Result:
             keepalive_s=0.5,
             request_timeout_s=2.0,
         )
-        runtime = await Runtime.start(settings)
+        runtime = await Runtime.start(configured_cell(settings), source_defaults(settings))
         start = time.monotonic()
         try:
             await asyncio.sleep(seconds)
         finally:
             elapsed = time.monotonic() - start
-            health = runtime.sources[0]
+            health = runtime.healths()[0]
             frames = min((r.frames for r in health.robots.values()), default=0)
             await runtime.stop()
     per_min = 60.0 / elapsed
@@ -134,7 +135,7 @@ async def main() -> None:
     text = table(results)
     print(text)
     body = (
-        f"{args.seconds:g} s per fault, default cell (3 robots, 11 nodes), subscribe mode at "
+        f"{args.seconds:g} s per fault, demo cell (3 robots, 11 nodes), subscribe mode at "
         "50 Hz, 0.5 s keepalive. Logins after failures are spaced 1 to 1.5 s apart; a token's "
         "renewal is planned from its lifetime (exp - iat) on our monotonic clock.\n\n" + text
     )

@@ -1,6 +1,6 @@
 """A ctrlX data layer that misbehaves on request: for fault-injection tests and benchmarks.
 
-It serves the default cell's joint nodes (login, bulk reads, subscriptions,
+It serves the demo cell's joint nodes (login, bulk reads, subscriptions,
 single reads) like a plain device, until ``device.behaviour`` says otherwise:
 a skewed clock, odd tokens, hostile login answers, broken event streams,
 endless bodies, NaN literals, HTML pages, stalls. Switch faults by assigning
@@ -15,7 +15,7 @@ import secrets
 import socket
 import struct
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -25,13 +25,14 @@ import orjson
 from aiohttp import web
 from aiohttp.typedefs import Handler
 
-from server.cell import default_cell
+from server.cell import load_cell
 from server.ctrlx import filetime_from_unix
 from server.mock_ctrlx import Machine
+from server.paths import DEMO_CELL
 
 TOKEN_PATH = "/identity-manager/api/v2/auth/token"
 DL = "/automation/api/v2"
-NODES = sorted({n for robot in default_cell() for n in robot.nodes})
+NODES = sorted({n for robot in load_cell(DEMO_CELL).robots for n in robot.nodes})
 NAN_NODE = "motion/axs/pos_turn/state/values/actual/pos"
 """The node NaN faults spoil: only the positioner reads it."""
 STALL_S = 10.0
@@ -223,7 +224,8 @@ class FakeDevice:
             return _problem(404, "Not Found", "no such service", request.path)
         self.counts.bulk_reads += 1
         if self.behaviour.bulk == "endless":
-            return await _endless(request, "application/json", b"[" + b" " * 65536)
+            still = lambda: self.behaviour.bulk == "endless"  # noqa: E731
+            return await _endless(request, "application/json", b"[" + b" " * 65536, still)
         items = await request.json()
         stamp, values = self._values()
         entries = [
@@ -256,12 +258,15 @@ class FakeDevice:
         if answer == "refuse":
             return _problem(404, "Not Found", "no such service", request.path)
         self.counts.stream_opens += 1
+        still = lambda: self.behaviour.events == answer  # noqa: E731
         if answer == "endless_line":
-            return await _endless(request, "text/event-stream", b"x" * 65536)
+            return await _endless(request, "text/event-stream", b"x" * 65536, still)
         if answer == "endless_data":
-            return await _endless(request, "text/event-stream", b"data: " + b"y" * 4090 + b"\n")
+            data = b"data: " + b"y" * 4090 + b"\n"
+            return await _endless(request, "text/event-stream", data, still)
         if answer == "junk":
-            return await _endless(request, "text/event-stream", b": nothing to see\n\n", 0.01)
+            junk = b": nothing to see\n\n"
+            return await _endless(request, "text/event-stream", junk, still, pause_s=0.01)
         response = _sse_response()
         try:
             await response.prepare(request)
@@ -313,14 +318,21 @@ def _sse_response() -> web.StreamResponse:
 
 
 async def _endless(
-    request: web.Request, content_type: str, chunk: bytes, pause_s: float = 0.0
+    request: web.Request,
+    content_type: str,
+    chunk: bytes,
+    still: Callable[[], bool],
+    pause_s: float = 0.0,
 ) -> web.StreamResponse:
-    """Send ``chunk`` again and again until the client goes away."""
+    """Send ``chunk`` again and again until the client goes away or ``still()`` turns false.
+
+    A device that behaves again ends its broken answers rather than repair them.
+    """
     response = web.StreamResponse(headers={"Content-Type": content_type})
     try:
         await response.prepare(request)
         async with asyncio.timeout(STALL_S):
-            while True:
+            while still():
                 await response.write(chunk)
                 await asyncio.sleep(pause_s)
     except (ConnectionResetError, TimeoutError):

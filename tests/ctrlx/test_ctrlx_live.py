@@ -46,9 +46,7 @@ async def test_unknown_node_is_node_not_found_with_its_address() -> None:
         with pytest.raises(NodeNotFound) as caught:
             await c.read_number("motion/axs/nope/state/values/actual/pos")
     assert caught.value.title == "DL_INVALID_ADDRESS"
-    assert (
-        caught.value.instance == "motion/axs/nope/state/values/actual/pos"
-    )
+    assert caught.value.instance == "motion/axs/nope/state/values/actual/pos"
 
 
 async def test_node_with_special_characters_reads_and_writes() -> None:
