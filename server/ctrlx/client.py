@@ -52,6 +52,8 @@ class Capabilities:
 
     bulk: bool | None = None
     subscribe: bool | None = None
+    refused_at: dict[str, float] = field(default_factory=dict)
+    """``time.monotonic()`` of the last refusal, by path ("subscriptions", "bulk reads")."""
 
 
 class DataLayerClient:

@@ -89,6 +89,8 @@ class Counts:
     stream_opens: int = 0
     """Event streams served (refused ones not counted)."""
     subscriptions: int = 0
+    refusals: int = 0
+    """Subscription and bulk requests answered 404 (or 405) as a refused service."""
     bulk_reads: int = 0
     """Bulk reads answered (refused ones not counted)."""
     node_reads: int = 0
@@ -221,6 +223,7 @@ class FakeDevice:
 
     async def _bulk(self, request: web.Request) -> web.StreamResponse:
         if self.behaviour.bulk == "refuse":
+            self.counts.refusals += 1
             return _problem(404, "Not Found", "no such service", request.path)
         self.counts.bulk_reads += 1
         if self.behaviour.bulk == "endless":
@@ -246,6 +249,7 @@ class FakeDevice:
 
     async def _subscribe(self, request: web.Request) -> web.Response:
         if self.behaviour.events == "refuse":
+            self.counts.refusals += 1
             return _problem(404, "Not Found", "no such service", request.path)
         self.counts.subscriptions += 1
         return web.Response(status=201)

@@ -250,3 +250,19 @@ async def test_follow_tries_refused_subscriptions_again_after_reprobe_s() -> Non
             await samples.aclose()
     assert device.counts.stream_opens >= 1, "back on the event stream"
     assert all(isinstance(v, float) for v in sample.values.values())
+
+
+async def test_a_refusal_is_remembered_when_follow_restarts() -> None:
+    # The acquisition restarts follow() after every error: that must not re-ask every time.
+    device = FakeDevice()
+    device.behaviour = Behaviour(bulk="refuse")
+    async with serving(device) as url:
+        async with DataLayerClient(url, Credentials(device.user, device.password)) as client:
+            for _ in range(3):
+                samples = follow(client, NODES, 0.02, "poll", reprobe_s=60.0)
+                sample = await anext(samples)
+                assert all(isinstance(v, float) for v in sample.values.values())
+                await samples.aclose()
+            assert "bulk reads refused" in (client.warning or "")
+    assert device.counts.refusals == 1
+    assert device.counts.node_reads >= 3 * len(NODES)
