@@ -117,8 +117,8 @@ class Token:
             return None
         if iat is not None and exp <= iat:
             return (
-                "the controller issues tokens that expire before they are issued (exp <= iat); "
-                "they are renewed only when it rejects one"
+                "clock skew: the controller's tokens expire before they are issued (exp <= iat); "
+                "they are renewed only when it rejects one; check its time settings (NTP)"
             )
         if exp <= self.received_wall:
             behind = (
