@@ -72,15 +72,22 @@ class SseParser:
         """The events completed by ``chunk``."""
         data, pos = self._buffer + chunk, 0
         events: list[SseEvent] = []
-        while (cut := _line_end(data, pos)) is not None:
-            end, after = cut
-            if end - pos > self.max_line:
+        try:
+            while (cut := _line_end(data, pos)) is not None:
+                end, after = cut
+                if end - pos > self.max_line:
+                    raise self._too_long()
+                self._line(data[pos:end].decode("utf-8", "replace"), events)
+                pos = after
+            self._buffer = data[pos:]
+            if len(self._buffer) > self.max_line:
                 raise self._too_long()
-            self._line(data[pos:end].decode("utf-8", "replace"), events)
-            pos = after
-        self._buffer = data[pos:]
-        if len(self._buffer) > self.max_line:
-            raise self._too_long()
+        except StreamEnded:
+            # The traceback keeps this frame alive until a garbage collection; what it held
+            # (up to a line and an event) must not live on with it.
+            del data, chunk, events
+            self._buffer, self._event, self._data, self._size = b"", "", [], 0
+            raise
         return events
 
     def _too_long(self) -> StreamEnded:

@@ -103,6 +103,7 @@ def test_sse_lines_and_events_are_bounded() -> None:
     with pytest.raises(StreamEnded, match="line longer than"):
         for _ in range(10):
             parser.feed(b"xxxxx")  # no line end ever
+    assert not parser.pending, "what was held is let go, not kept alive by the traceback"
     parser = SseParser(max_line=16, max_event=64)
     with pytest.raises(StreamEnded, match="event larger than"):
         for _ in range(10):
