@@ -20,6 +20,7 @@ from ..runtime import Runtime
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
 from . import routes, transformation, ws
+from .guards import Gatekeeper, LimitBody
 
 
 def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
@@ -51,6 +52,10 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
             await runtime.stop()
 
     app = FastAPI(title="linkview", lifespan=lifespan)
+    app.state.max_viewers = settings.max_viewers
+    token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
+    app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin)
+    app.add_middleware(LimitBody)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.include_router(routes.router)
     app.include_router(ws.router)

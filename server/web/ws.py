@@ -6,6 +6,7 @@ import asyncio
 import logging
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from fastapi.responses import PlainTextResponse
 
 from ..protocol import PROTOCOLS
 from ..runtime import Runtime
@@ -30,6 +31,11 @@ def negotiate(offered: list[str]) -> tuple[str | None, int]:
 async def viewer_socket(websocket: WebSocket) -> None:
     """Stream to one viewer; it only ever gets the newest frame per key."""
     runtime: Runtime = websocket.app.state.runtime
+    if runtime.hub.viewer_count >= websocket.app.state.max_viewers:
+        await websocket.send_denial_response(
+            PlainTextResponse("too many viewers; try again later", status_code=503)
+        )
+        return
     subprotocol, protocol = negotiate(list(websocket.scope.get("subprotocols", [])))
     await websocket.accept(subprotocol=subprotocol)
     viewer = runtime.hub.join(protocol)
