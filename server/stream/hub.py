@@ -15,6 +15,8 @@ import itertools
 from collections import Counter
 from dataclasses import dataclass
 
+from .buckets import Buckets
+
 
 @dataclass(frozen=True, slots=True)
 class Message:
@@ -74,6 +76,8 @@ class Hub:
         self._latest: dict[str, tuple[Message, int | None]] = {}
         self._protocols: Counter[int] = Counter()
         self.dropped_by_departed = 0
+        self.delay = Buckets()
+        """Seconds from the data layer's sample to the send of each frame message, per viewer."""
 
     def publish(self, key: str, message: Message, protocol: int | None = None) -> None:
         """Offer ``message`` (already encoded) to every viewer of ``protocol`` (None: all)."""
@@ -107,7 +111,11 @@ class Hub:
 
     def wants(self, protocol: int) -> bool:
         """True when a viewer of ``protocol`` is connected (so its messages are worth encoding)."""
-        return self._protocols[protocol] > 0
+        return self.viewers_of(protocol) > 0
+
+    def viewers_of(self, protocol: int) -> int:
+        """Viewers of ``protocol`` connected now."""
+        return self._protocols[protocol]
 
     @property
     def viewer_count(self) -> int:

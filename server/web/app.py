@@ -19,7 +19,7 @@ from ..paths import STATIC_DIR
 from ..runtime import Runtime
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import routes, transformation, ws
+from . import metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
 
 
@@ -60,6 +60,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app.include_router(routes.router)
     app.include_router(ws.router)
     app.include_router(transformation.router)
+    app.include_router(metrics.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from fastapi.responses import PlainTextResponse
@@ -46,6 +47,8 @@ async def viewer_socket(websocket: WebSocket) -> None:
             batch = await viewer.take()
             async with asyncio.timeout(SEND_TIMEOUT_S):
                 for message in batch:
+                    if message.t_source is not None:
+                        runtime.hub.delay.observe(time.time() - message.t_source)
                     if isinstance(message.payload, bytes):
                         await websocket.send_bytes(message.payload)
                     else:
