@@ -42,7 +42,9 @@ async def test_a_foreign_origin_cannot_open_the_stream_with_or_without_token() -
         assert await ws_status(ws, origin="https://hmi.plant.example:8443") == 101
         assert await ws_status(ws, origin="https://evil.example") == 403
         assert await ws_status(ws, origin="http://127.0.0.1:1") == 403  # another port
-    async with running_server(settings.model_copy(update={"viewer_token": SecretStr(TOKEN)})) as base:
+    async with running_server(
+        settings.model_copy(update={"viewer_token": SecretStr(TOKEN)})
+    ) as base:
         ws = base.replace("http", "ws") + "/ws"
         auth = {"Authorization": f"Bearer {TOKEN}"}
         assert await ws_status(ws, origin="https://evil.example", additional_headers=auth) == 403
