@@ -139,7 +139,8 @@ def main(argv: list[str] | None = None) -> None:
             settings.port,
         )
     app = create_app(settings, cell)
-    uvicorn.Server(server_config(app, settings.host, settings.port)).run()
+    config = server_config(app, settings.host, settings.port, settings.client_timeout_s)
+    uvicorn.Server(config).run()
 
 
 def is_loopback(host: str) -> bool:

@@ -23,7 +23,9 @@ class BodyTooLarge(HTTPException):
     """A request body found too large while streaming in (no Content-Length to check first)."""
 
     def __init__(self) -> None:
-        super().__init__(413, f"request body larger than {MAX_BODY_BYTES} bytes")
+        # Closing is the only way to stop a sender mid-body; kept open, it would be drained.
+        headers = {"Connection": "close"}
+        super().__init__(413, f"request body larger than {MAX_BODY_BYTES} bytes", headers)
 
 
 def _header(scope: Scope, name: bytes) -> str | None:

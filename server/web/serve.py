@@ -18,6 +18,8 @@ import uvicorn
 from fastapi import FastAPI
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
+from .wire import StreamingWebSocketProtocol
+
 MAX_HEAD_BYTES = 64 * 1024
 MAX_VIEWER_MESSAGE_BYTES = 4 * 1024
 REQUEST_TIMEOUT_S = 10.0
@@ -26,6 +28,7 @@ REQUEST_TIMEOUT_S = 10.0
 class GuardedH11Protocol(H11Protocol):
     """uvicorn's h11 protocol with a deadline for each complete request."""
 
+    timeout_s = REQUEST_TIMEOUT_S
     _deadline: asyncio.TimerHandle | None = None
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
@@ -48,7 +51,7 @@ class GuardedH11Protocol(H11Protocol):
 
     def _arm(self) -> None:
         self._disarm()
-        self._deadline = self.loop.call_later(REQUEST_TIMEOUT_S, self._expire)
+        self._deadline = self.loop.call_later(self.timeout_s, self._expire)
 
     def _disarm(self) -> None:
         if self._deadline is not None:
@@ -61,16 +64,23 @@ class GuardedH11Protocol(H11Protocol):
             self.transport.close()
 
 
-def server_config(app: FastAPI, host: str, port: int, **extra: object) -> uvicorn.Config:
+def server_config(
+    app: FastAPI,
+    host: str,
+    port: int,
+    request_timeout_s: float = REQUEST_TIMEOUT_S,
+    **extra: object,
+) -> uvicorn.Config:
     """The uvicorn configuration every linkview server runs with (tests included)."""
+    protocol = type("GuardedH11Protocol", (GuardedH11Protocol,), {"timeout_s": request_timeout_s})
     return uvicorn.Config(
         app,
         host=host,
         port=port,
         log_level="warning",
-        http=GuardedH11Protocol,
+        http=protocol,
         h11_max_incomplete_event_size=MAX_HEAD_BYTES,
-        ws="websockets-sansio",
+        ws=StreamingWebSocketProtocol,
         ws_max_size=MAX_VIEWER_MESSAGE_BYTES,
         ws_per_message_deflate=False,
         timeout_keep_alive=5,
