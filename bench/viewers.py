@@ -190,7 +190,7 @@ def goals(cases: list[Case]) -> list[str]:
             lines.append(f"{where} min frames/s >= 45 and p99 <= 50 ms: {yes(ok)}")
         if c["protocol"] == 2 and c["viewers"] == cases[0]["viewers"]:
             size = c["bytes_per_link"]
-            lines.append(f"{where} {size:.1f} bytes/link <= 42: {yes(size <= 42)}")
+            lines.append(f"- protocol 2: {size:.1f} bytes/link <= 42: {yes(size <= 42)}")
     return lines
 
 
