@@ -83,7 +83,8 @@ class BatchKernel:
         vectorises ``tan`` but not ``sin``/``cos`` for float64.
         """
         k = self._turn_src.size
-        cos, sin, slide, t, t2 = (r[:k] for r in rows)
+        cos, sin, t, t2 = rows[0, :k], rows[1, :k], rows[3, :k], rows[4, :k]
+        slide = rows[2]
         np.take(q.T, self._turn_src, axis=0, out=t)
         t *= self._turn_mul
         t += self._turn_off

@@ -163,7 +163,7 @@ class UrdfChain:
         if not ok_rows.all():
             arr = np.where(np.isfinite(arr), arr, 0.0)
         lead = arr.shape[:-1]
-        frames = kernels.batch(arr.reshape(-1, self.n_joints))
+        frames = kernels.batch(arr.reshape(math.prod(lead), self.n_joints))
         return frames.reshape(lead + frames.shape[1:]), ok_rows
 
     def link_poses(self, q: npt.ArrayLike) -> tuple[Array, BoolArray]:
@@ -218,7 +218,8 @@ class UrdfChain:
         lead = target.shape[:-2]
         flat_target = target.reshape(-1, 4, 4)
         lim = self.limits
-        middle = np.where(np.isfinite(lim).all(axis=1), 0.5 * (lim[:, 0] + lim[:, 1]), 0.0)
+        bounded = np.isfinite(lim).all(axis=1)
+        middle = np.where(bounded, 0.5 * np.where(bounded[:, None], lim, 0.0).sum(axis=1), 0.0)
         ref = None
         if q_ref is not None:
             ref = np.broadcast_to(self._joints(q_ref), lead + (self.n_joints,))
