@@ -132,9 +132,8 @@ def _finish(mesh: Any, rgba: tuple[float, float, float, float] | None) -> Any:
 
 def _collada_unit(path: Path) -> float:
     """Metres per unit of a COLLADA file (``<asset><unit meter>``), 1 if not given."""
-    for _, el in etree.iterparse(str(path), tag="{*}unit"):
-        return float(el.get("meter", "1"))
-    return 1.0
+    unit = etree.parse(str(path)).getroot().find("{*}asset/{*}unit")
+    return 1.0 if unit is None else float(unit.get("meter", "1"))
 
 
 def _meshes(visual: Visual) -> list[Any]:

@@ -58,7 +58,9 @@ def random_tree(rng: np.random.Generator, n_links: int) -> UrdfTree:
     links = [f"link{i}" for i in range(n_links)]
     joints: list[UrdfJoint] = []
     for i in range(1, n_links):
-        kind = str(rng.choice(["revolute", "continuous", "prismatic", "fixed"], p=[0.45, 0.15, 0.2, 0.2]))
+        kind = str(
+            rng.choice(["revolute", "continuous", "prismatic", "fixed"], p=[0.45, 0.15, 0.2, 0.2])
+        )
         if rng.random() < 0.5:
             rpy = tuple(float(x) for x in rng.integers(-2, 3, 3) * (math.pi / 2))
         else:
@@ -72,7 +74,9 @@ def random_tree(rng: np.random.Generator, n_links: int) -> UrdfTree:
         leaders = [j.name for j in joints if j.type != "fixed"]
         mimic = None
         if kind != "fixed" and leaders and rng.random() < 0.3:
-            mimic = UrdfMimic(str(rng.choice(leaders)), float(rng.uniform(-2, 2)), float(rng.uniform(-0.3, 0.3)))
+            mimic = UrdfMimic(
+                str(rng.choice(leaders)), float(rng.uniform(-2, 2)), float(rng.uniform(-0.3, 0.3))
+            )
         joints.append(
             UrdfJoint(
                 name=f"joint{i}",
@@ -104,7 +108,9 @@ def ur_like() -> UrdfTree:
         UrdfJoint(f"j{i}", "revolute", p, c, pose(xyz, rpy), axis, limits=(-math.pi, math.pi))
         for i, (p, c, xyz, rpy, axis) in enumerate(rows)
     ]
-    joints.append(UrdfJoint("tool", "fixed", "wrist_3", "tool0", pose((0, 0.0823, 0), (-half, 0, 0))))
+    joints.append(
+        UrdfJoint("tool", "fixed", "wrist_3", "tool0", pose((0, 0.0823, 0), (-half, 0, 0)))
+    )
     links = ("base_link",) + tuple(r[1] for r in rows) + ("tool0",)
     return UrdfTree(links, tuple(joints))
 
@@ -114,18 +120,60 @@ def gripper_arm() -> UrdfTree:
     return UrdfTree(
         ("base", "carriage", "upper", "fore", "palm", "left", "right"),
         (
-            UrdfJoint("lift", "prismatic", "base", "carriage", pose((0.1, 0, 0.2), (0, 0, 0.3)),
-                      (0, 0, 1), (0.0, 0.6)),
-            UrdfJoint("shoulder", "continuous", "carriage", "upper", pose((0, 0.1, 0.05), (0, 0, 0)),
-                      (0, 0, 1)),
-            UrdfJoint("elbow", "revolute", "upper", "fore", pose((0.4, 0, 0), (0.2, 0, 0)),
-                      (0, 0, 1), (-2.6, 2.6)),
-            UrdfJoint("wrist", "revolute", "fore", "palm", pose((0.3, 0, -0.02), (math.pi, 0.4, 0)),
-                      (1, 0, 0), (-3.0, 3.0)),
-            UrdfJoint("left_finger", "prismatic", "palm", "left", pose((0.05, 0.01, 0), (0, 0, 0)),
-                      (0, 1, 0), (0.0, 0.04)),
-            UrdfJoint("right_finger", "prismatic", "palm", "right", pose((0.05, -0.01, 0.02), (0, 0.5, 0)),
-                      (0, 1, 0), (-0.04, 0.0), UrdfMimic("left_finger", -1.0, 0.0)),
+            UrdfJoint(
+                "lift",
+                "prismatic",
+                "base",
+                "carriage",
+                pose((0.1, 0, 0.2), (0, 0, 0.3)),
+                (0, 0, 1),
+                (0.0, 0.6),
+            ),
+            UrdfJoint(
+                "shoulder",
+                "continuous",
+                "carriage",
+                "upper",
+                pose((0, 0.1, 0.05), (0, 0, 0)),
+                (0, 0, 1),
+            ),
+            UrdfJoint(
+                "elbow",
+                "revolute",
+                "upper",
+                "fore",
+                pose((0.4, 0, 0), (0.2, 0, 0)),
+                (0, 0, 1),
+                (-2.6, 2.6),
+            ),
+            UrdfJoint(
+                "wrist",
+                "revolute",
+                "fore",
+                "palm",
+                pose((0.3, 0, -0.02), (math.pi, 0.4, 0)),
+                (1, 0, 0),
+                (-3.0, 3.0),
+            ),
+            UrdfJoint(
+                "left_finger",
+                "prismatic",
+                "palm",
+                "left",
+                pose((0.05, 0.01, 0), (0, 0, 0)),
+                (0, 1, 0),
+                (0.0, 0.04),
+            ),
+            UrdfJoint(
+                "right_finger",
+                "prismatic",
+                "palm",
+                "right",
+                pose((0.05, -0.01, 0.02), (0, 0.5, 0)),
+                (0, 1, 0),
+                (-0.04, 0.0),
+                UrdfMimic("left_finger", -1.0, 0.0),
+            ),
         ),
     )
 
@@ -140,7 +188,12 @@ def test_random_trees_agree_with_the_reference_on_every_kernel(seed: int) -> Non
     tree = random_tree(rng, int(rng.integers(2, 11)))
     chain = UrdfChain(tree)
     q = rng.uniform(-3, 3, (300, chain.n_joints))  # above the column kernel's threshold
-    expected = np.array([[ref[name] for name in chain.link_names] for ref in (reference(tree, row) for row in q[:12])])
+    expected = np.array(
+        [
+            [ref[name] for name in chain.link_names]
+            for ref in (reference(tree, row) for row in q[:12])
+        ]
+    )
     large, ok = chain.link_poses(q)
     small, _ = chain.link_poses(q[:12])
     assert ok.all()
@@ -158,17 +211,24 @@ def test_random_trees_agree_with_the_reference_on_every_kernel(seed: int) -> Non
 def test_large_batches_match_small_ones_across_blocks_and_leading_axes() -> None:
     rng = np.random.default_rng(3)
     chain = UrdfChain(random_tree(rng, 9))
-    q = rng.uniform(-3, 3, (3, 3001, chain.n_joints))  # 9003 rows: three blocks of the column kernel
+    # 9003 rows: three blocks of the column kernel.
+    q = rng.uniform(-3, 3, (3, 3001, chain.n_joints))
     large, ok = chain.link_poses(q)
-    assert large.shape == (3, 3001, len(chain.link_names), 4, 4) and ok.shape == (3, 3001) and ok.all()
+    assert (
+        large.shape == (3, 3001, len(chain.link_names), 4, 4) and ok.shape == (3, 3001) and ok.all()
+    )
     flat = q.reshape(-1, chain.n_joints)
-    pieces = np.concatenate([chain.link_poses(flat[i : i + 200])[0] for i in range(0, len(flat), 200)])
+    pieces = np.concatenate(
+        [chain.link_poses(flat[i : i + 200])[0] for i in range(0, len(flat), 200)]
+    )
     np.testing.assert_allclose(large.reshape(pieces.shape), pieces, rtol=0, atol=1e-12)
 
 
 def test_links_come_root_first_and_joints_in_document_order() -> None:
     tree = gripper_arm()
-    shuffled = UrdfTree(("right", "palm", "left", "fore", "base", "upper", "carriage"), tree.joints[::-1])
+    shuffled = UrdfTree(
+        ("right", "palm", "left", "fore", "base", "upper", "carriage"), tree.joints[::-1]
+    )
     chain = UrdfChain(shuffled)
     names = chain.link_names
     assert names[0] == "base" and set(names) == set(tree.links)
@@ -186,7 +246,9 @@ def test_defaults_units_limits_and_params() -> None:
     assert UrdfChain(gripper_arm(), tip="fore").tip == "fore"
     assert chain.joint_units == ("m", "rad", "rad", "rad", "m")
     assert chain.limits[1].tolist() == [-math.inf, math.inf]  # continuous
-    np.testing.assert_array_equal(chain.limits[[0, 2, 3, 4]], [[0, 0.6], [-2.6, 2.6], [-3, 3], [0, 0.04]])
+    np.testing.assert_array_equal(
+        chain.limits[[0, 2, 3, 4]], [[0, 0.6], [-2.6, 2.6], [-3, 3], [0, 0.04]]
+    )
     params = json.loads(json.dumps(chain.params()))
     assert params["joint_names"] == list(chain.joint_names)
     assert params["joint_types"] == ["prismatic", "continuous", "revolute", "revolute", "prismatic"]
@@ -229,11 +291,19 @@ def bad(tree: UrdfTree, **changes: object) -> UrdfTree:
         ({"limits": None}, "joint 'elbow' .revolute. needs limits"),
         ({"limits": (1.0, -1.0)}, "limits must be finite with lower <= upper"),
         ({"axis": (0.0, 0.0, 0.0)}, "joint 'elbow': axis must be a non-zero 3-vector"),
-        ({"mimic": UrdfMimic("knee")}, "joint 'elbow' mimics 'knee', which is not a joint of this robot"),
-        ({"joint": "right_finger", "mimic": UrdfMimic("right_finger")}, "mimic joints form a cycle"),
+        (
+            {"mimic": UrdfMimic("knee")},
+            "joint 'elbow' mimics 'knee', which is not a joint of this robot",
+        ),
+        (
+            {"joint": "right_finger", "mimic": UrdfMimic("right_finger")},
+            "mimic joints form a cycle",
+        ),
     ],
 )
-def test_bad_trees_are_rejected_with_what_is_wrong(changes: dict[str, object], message: str) -> None:
+def test_bad_trees_are_rejected_with_what_is_wrong(
+    changes: dict[str, object], message: str
+) -> None:
     with pytest.raises(ValueError, match=message):
         UrdfChain(bad(gripper_arm(), **changes))
 
@@ -257,16 +327,26 @@ def test_bad_tree_shapes_are_rejected() -> None:
 
 def test_mimic_of_a_mimic_composes() -> None:
     tree = gripper_arm()
-    thumb = UrdfJoint("thumb", "revolute", "palm", "thumb_link", pose((0, 0, 0.05), (0, 0, 0)),
-                      (0, 0, 1), mimic=UrdfMimic("right_finger", 10.0, 0.2))
+    thumb = UrdfJoint(
+        "thumb",
+        "revolute",
+        "palm",
+        "thumb_link",
+        pose((0, 0, 0.05), (0, 0, 0)),
+        (0, 0, 1),
+        mimic=UrdfMimic("right_finger", 10.0, 0.2),
+    )
     chain = UrdfChain(UrdfTree(tree.links + ("thumb_link",), tree.joints + (thumb,)))
     q = np.array([0.1, 0.2, 0.3, 0.4, 0.03])
     poses, _ = chain.link_poses(q)
     at = dict(zip(chain.link_names, poses, strict=True))
     turn = np.linalg.inv(at["palm"]) @ at["thumb_link"]
     angle = 10.0 * (-1.0 * 0.03) + 0.2  # thumb = 10 * right + 0.2, right = -left
-    np.testing.assert_allclose(turn[:2, :2], [[math.cos(angle), -math.sin(angle)],
-                                             [math.sin(angle), math.cos(angle)]], atol=1e-12)
+    np.testing.assert_allclose(
+        turn[:2, :2],
+        [[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]],
+        atol=1e-12,
+    )
 
 
 def round_trip(chain: UrdfChain, seed: int, count: int) -> None:

@@ -9,6 +9,7 @@ capsules from one joint to the next. Colours come from the URDF's materials.
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -91,10 +92,15 @@ def meshes() -> dict[str, trimesh.Trimesh]:
     }
 
 
-def main() -> int:
-    OUT.mkdir(parents=True, exist_ok=True)
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--out", type=Path, default=OUT, help="output folder (default: %(default)s)"
+    )
+    out = parser.parse_args(argv).out
+    out.mkdir(parents=True, exist_ok=True)
     for stem, mesh in meshes().items():
-        path = OUT / f"{stem}.stl"
+        path = out / f"{stem}.stl"
         path.write_bytes(trimesh.exchange.stl.export_stl(mesh))
         print(f"{path.stat().st_size:7d}  {path}")
     return 0
