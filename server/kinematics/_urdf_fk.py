@@ -18,7 +18,7 @@ Both return frames as 4x4 poses in the root-link frame (m, rad).
 from __future__ import annotations
 
 import math
-from array import array
+import struct
 from collections.abc import Callable
 
 import numpy as np
@@ -293,15 +293,17 @@ class ScalarKernel:
                 for r in range(3):
                     out[16 * op.frame + 4 * r + op.col] = _entry_code(values[r], sign)
         body = "\n".join(src.lines)
-        code = f"def frames({', '.join(params)}):\n{body}\n    return ({', '.join(out)},)\n"
-        namespace: dict[str, object] = {"cos": math.cos, "sin": math.sin}
+        code = f"def frames({', '.join(params)}):\n{body}\n    return pack({', '.join(out)})\n"
+        # Packing the doubles straight into bytes is the cheapest way into an array.
+        pack = struct.Struct(f"{len(out)}d").pack
+        namespace: dict[str, object] = {"cos": math.cos, "sin": math.sin, "pack": pack}
         exec(compile(code, "<urdf forward kinematics>", "exec"), namespace)  # noqa: S102
         self.source = code
-        self._frames: Callable[..., tuple[float, ...]] = namespace["frames"]  # type: ignore[assignment]
+        self._frames: Callable[..., bytes] = namespace["frames"]  # type: ignore[assignment]
         self._shape = (prog.n_frames, 4, 4)
 
     def __call__(self, q: list[float]) -> Array:
-        return np.frombuffer(array("d", self._frames(*q))).reshape(self._shape)
+        return np.frombuffer(bytearray(self._frames(*q))).reshape(self._shape)
 
 
 def _cross_matrix(a: Array) -> Array:

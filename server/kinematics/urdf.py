@@ -218,8 +218,7 @@ class UrdfChain:
         lead = target.shape[:-2]
         flat_target = target.reshape(-1, 4, 4)
         lim = self.limits
-        bounded = np.isfinite(lim).all(axis=1)
-        middle = np.where(bounded, 0.5 * np.where(bounded[:, None], lim, 0.0).sum(axis=1), 0.0)
+        middle = 0.5 * np.where(np.isfinite(lim), lim, 0.0).sum(axis=1)  # 0 if continuous
         ref = None
         if q_ref is not None:
             ref = np.broadcast_to(self._joints(q_ref), lead + (self.n_joints,))
