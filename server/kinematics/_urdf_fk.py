@@ -12,7 +12,7 @@
   zero terms dropped, one line per matrix entry) and compiled; a call is then a
   few microseconds.
 
-Both return frames as 4x4 poses in the root-link frame (m, rad).
+All three return frames as 4x4 poses in the root-link frame (m, rad).
 """
 
 from __future__ import annotations
