@@ -33,7 +33,7 @@ def _parse_xml(path: Path) -> Any:
     if not path.is_file():
         raise UrdfError(f"URDF file {path} not found")
     try:
-        root = etree.parse(str(path), etree.XMLParser(remove_blank_text=True)).getroot()
+        root = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, remove_comments=True)).getroot()
     except etree.XMLSyntaxError as exc:
         raise UrdfError(f"{path}: malformed XML, line {exc.lineno}: {exc.msg}") from None
     if root.tag != "robot":
@@ -43,6 +43,17 @@ def _parse_xml(path: Path) -> Any:
     for el in root.iter("link", "joint"):
         if not el.get("name"):
             raise UrdfError(f"{path}, line {el.sourceline}: <{el.tag}> without a name")
+    for el in root.iter("visual"):
+        geometry = el.find("geometry")
+        shapes = [] if geometry is None else [str(child.tag) for child in geometry]
+        if len(shapes) != 1 or shapes[0] not in ("box", "cylinder", "sphere", "mesh"):
+            raise UrdfError(
+                f"{path}, line {el.sourceline}: a <visual> needs a <geometry> holding one "
+                f"box, cylinder, sphere or mesh (found: {', '.join(shapes) or 'nothing'})"
+            )
+        mesh = el.find("geometry/mesh")
+        if mesh is not None and not mesh.get("filename"):
+            raise UrdfError(f"{path}, line {mesh.sourceline}: <mesh> without a filename")
     for el in root.iter("joint"):
         for role in ("parent", "child"):
             ref = el.find(role)
@@ -118,8 +129,6 @@ def _visuals(robot: Any, path: Path, packages: Mapping[str, Path]) -> dict[str, 
     for link in robot.links:
         visuals = []
         for visual in link.visuals:
-            if visual.geometry is None:
-                raise UrdfError(f"{path}: link {link.name!r}: a <visual> without <geometry>")
             material, rgba = visual.material, None
             if material is not None and material.color is not None:
                 c = np.asarray(material.color.rgba, dtype=np.float64)

@@ -194,6 +194,18 @@ def test_file_and_xml_errors(tmp_path: Path) -> None:
     )
     with pytest.raises(UrdfError, match=r"line 2: joint 'j' has no <parent link=\"...\"/>"):
         load_urdf(orphan)
+    for geometry, found in (
+        ("", "nothing"),
+        ("<box/><sphere/>", "box, sphere"),
+        ("<cone/>", "cone"),
+    ):
+        shapeless = write(tmp_path, visual(geometry))
+        with pytest.raises(
+            UrdfError, match=rf"line 3: a <visual> needs a <geometry> .*found: {found}"
+        ):
+            load_urdf(shapeless)
+    with pytest.raises(UrdfError, match=r"line 3: <mesh> without a filename"):
+        load_urdf(write(tmp_path, visual("<mesh/>")))
     two_roots = tmp_path / "two_roots.urdf"
     two_roots.write_text('<robot name="a"><link name="a"/><link name="b"/></robot>')
     with pytest.raises(UrdfError, match="single root link; roots found: a, b"):
