@@ -33,7 +33,8 @@ def _parse_xml(path: Path) -> Any:
     if not path.is_file():
         raise UrdfError(f"URDF file {path} not found")
     try:
-        root = etree.parse(str(path), etree.XMLParser(remove_blank_text=True, remove_comments=True)).getroot()
+        parser = etree.XMLParser(remove_blank_text=True, remove_comments=True)
+        root = etree.parse(str(path), parser).getroot()
     except etree.XMLSyntaxError as exc:
         raise UrdfError(f"{path}: malformed XML, line {exc.lineno}: {exc.msg}") from None
     if root.tag != "robot":
