@@ -40,12 +40,16 @@ def problems(path: Path, env: dict[str, str] | None = None) -> list[str]:
 
 
 def test_an_unknown_key_is_named(tmp_path: Path) -> None:
-    path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line1"\ncolor = 1'))
+    path = write(
+        tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line1"\ncolor = 1')
+    )
     assert problems(path) == ["robot[0].color: unknown key"]
 
 
 def test_a_wrong_unit_is_named_with_the_units_allowed(tmp_path: Path) -> None:
-    path = write(tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "grad" }'))
+    path = write(
+        tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "grad" }')
+    )
     assert problems(path) == [
         "robot[0].joints[1].unit: must be 'deg', 'rad', 'mm' or 'm', not 'grad'"
     ]
@@ -60,12 +64,16 @@ def test_a_linear_unit_on_a_rotary_joint_is_refused(tmp_path: Path) -> None:
 
 def test_a_joint_count_that_does_not_match_the_kinematics(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace(', { node = "b" }', ""))
-    assert problems(path) == ["robot[0].joints: the type12 kinematics has 2 joints (a0, a1); 1 given"]
+    assert problems(path) == [
+        "robot[0].joints: the type12 kinematics has 2 joints (a0, a1); 1 given"
+    ]
 
 
 def test_an_unknown_kinematics_type(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace("type12", "scara"))
-    assert problems(path) == ["robot[0].kinematics: type must be one of type12, dh, axis_group, urdf"]
+    assert problems(path) == [
+        "robot[0].kinematics: type must be one of type12, dh, axis_group, urdf"
+    ]
 
 
 def test_a_missing_urdf(tmp_path: Path) -> None:
@@ -85,12 +93,15 @@ def test_a_malformed_urdf(tmp_path: Path) -> None:
 def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
     urdf = (URDF_DIR / "urdf" / "arm6.urdf").read_text()
     (tmp_path / "arm.urdf").write_text(urdf.replace("meshes/base.stl", "meshes/gone.stl"))
+    nodes = ", ".join(f'{{ node = "n{i}" }}' for i in range(6))
     robot = f"""
     [[robot]]
     name = "arm"
     source = "line1"
-    kinematics = {{ type = "urdf", file = "arm.urdf", packages = {{ arm6_description = "{URDF_DIR}" }} }}
-    joints = [{", ".join(['{ node = "n%d" }' % i for i in range(6)])}]
+    kinematics.type = "urdf"
+    kinematics.file = "arm.urdf"
+    kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
+    joints = [{nodes}]
     """
     (message,) = problems(write(tmp_path, SOURCE + textwrap.dedent(robot)))
     assert message.startswith("robot[0].kinematics.file: ") and "gone.stl" in message
@@ -159,7 +170,9 @@ def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
     [[robot]]
     name = "arm"
     source = "line1"
-    kinematics = {{ type = "urdf", file = "{URDF_DIR}/urdf/arm6.urdf", packages = {{ arm6_description = "{URDF_DIR}" }} }}
+    kinematics.type = "urdf"
+    kinematics.file = "{URDF_DIR}/urdf/arm6.urdf"
+    kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
     joints = [{joints}]
     """
     cell = load_cell(write(tmp_path, SOURCE + textwrap.dedent(robot)), env={}, cache_dir=tmp_path)
