@@ -10,7 +10,6 @@ import numpy as np
 
 from ..kinematics import DHChain, LBRiiwa, Type12, WorldModel, matrix_from_rpy
 from ..kinematics._pose_vector import pose_vector_from_matrix
-from ..urdf import UrdfError, link_meshes, load_urdf
 from . import schema
 from .axis_group import AxisGroupKinematics
 from .robot import DEG, MM, Array, Family, Kinematics
@@ -193,6 +192,9 @@ def _axis_group(spec: schema.AxisGroup, where: Where) -> Built:
 
 
 def _urdf(spec: schema.Urdf, where: Where) -> Built:
+    # Imported here: yourdfpy and trimesh take ~80 MB and a second; cells without URDF skip them.
+    from ..urdf import UrdfError, link_meshes, load_urdf
+
     packages = {name: where.resolve(folder) for name, folder in spec.packages.items()}
     try:
         robot = load_urdf(where.resolve(spec.file), packages, spec.tip)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import textwrap
@@ -214,3 +215,20 @@ def test_check_and_the_server_refuse_a_bad_cell_with_the_same_message(tmp_path: 
     assert checked.returncode == 1 and checked.stderr.strip() == expected
     assert started.returncode == 2 and expected in started.stderr
     assert "Traceback" not in checked.stderr + started.stderr
+
+
+def test_docs_describe_every_key_and_their_example_is_valid() -> None:
+    import tomllib
+
+    from server.cell import schema
+
+    doc = (ROOT / "docs" / "cell.md").read_text()
+    example = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    schema.Cell.model_validate(tomllib.loads(example))
+    models = (schema.Source, schema.Robot, schema.Joint, schema.Type12, schema.DH)
+    models += (schema.Axis, schema.AxisGroup, schema.Urdf, schema.Pose)
+    prose = re.sub(r"```.*?```", "", doc, flags=re.S)
+    named = {word for span in re.findall(r"`([^`]+)`", prose) for word in re.findall(r"\w+", span)}
+    for model in models:
+        missing = set(model.model_fields) - named
+        assert not missing, f"docs/cell.md does not describe {model.__name__}.{missing}"
