@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import ipaddress
+import logging
 import sys
 from pathlib import Path
 
@@ -14,6 +16,9 @@ from .config import Settings
 from .logs import setup_logging
 from .runtime.startup import configured_cell
 from .web import create_app
+from .web.serve import server_config
+
+log = logging.getLogger("server")
 
 
 def parse_settings(argv: list[str] | None = None) -> Settings:
@@ -33,6 +38,18 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="let the page move robots of real controllers (embedded mocks always may)",
     )
+    parser.add_argument(
+        "--viewer-token",
+        metavar="SECRET",
+        help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
+    )
+    parser.add_argument(
+        "--allow-origin",
+        metavar="URL",
+        action="append",
+        help="also let pages from this origin open the stream (repeatable)",
+    )
+    parser.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
     parser.add_argument(
         "--ctrlx", metavar="URL", help="controller URL for a one-source cell (default: its own)"
     )
@@ -60,6 +77,9 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "port": args.port,
         "cell": args.cell,
         "allow_commands": args.allow_commands,
+        "viewer_token": args.viewer_token,
+        "allow_origin": args.allow_origin,
+        "max_viewers": args.max_viewers,
         "ctrlx_url": args.ctrlx,
         "ctrlx_mode": args.mode,
         "ctrlx_api": args.api,
@@ -110,13 +130,27 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )
-    uvicorn.run(
-        create_app(settings, cell),
-        host=settings.host,
-        port=settings.port,
-        log_level="warning",
-        ws="websockets-sansio",
-    )
+    if settings.viewer_token is None and not is_loopback(settings.host):
+        log.warning(
+            "listening on %s without a viewer token: anyone who can reach port %d can watch "
+            "this cell (and move its simulated robots); set --viewer-token or "
+            "LINKVIEW_VIEWER_TOKEN",
+            settings.host,
+            settings.port,
+        )
+    app = create_app(settings, cell)
+    config = server_config(app, settings.host, settings.port, settings.client_timeout_s)
+    uvicorn.Server(config).run()
+
+
+def is_loopback(host: str) -> bool:
+    """True for addresses only this machine can reach."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 if __name__ == "__main__":

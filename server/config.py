@@ -21,6 +21,14 @@ class Settings(BaseSettings):
     """The cell file (TOML, see docs/cell.md); None: the shipped demo cell."""
     allow_commands: bool = False
     """Let the page move robots of real controllers too (embedded mocks always may)."""
+    viewer_token: SecretStr | None = None
+    """Required on the page, /ws and /api/* when set (``?token=`` in a link sets a cookie)."""
+    allow_origin: list[str] = []
+    """Origins besides the server's own whose pages may open /ws."""
+    max_viewers: int = Field(1000, ge=1)
+    """Viewers beyond this many are refused with 503."""
+    client_timeout_s: float = Field(10.0, gt=0.0)
+    """An HTTP client has this long to send a whole request; idle connections close after it."""
     ctrlx_url: str | None = None
     """Base URL of the ctrlX device for a one-source cell, overriding the cell's own source."""
     ctrlx_user: str = "boschrexroth"

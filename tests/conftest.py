@@ -16,6 +16,7 @@ from server.config import Settings
 from server.mock_ctrlx import build_app, serve
 from server.paths import DEMO_CELL
 from server.web import create_app
+from server.web.serve import server_config
 
 
 def demo_cell() -> Cell:
@@ -53,14 +54,8 @@ async def running_mock(
 async def running_server(settings: Settings, cell: Cell | None = None) -> AsyncIterator[str]:
     """linkview served by uvicorn on a free loopback port; yields its http base URL."""
     port = free_port()
-    config = uvicorn.Config(
-        create_app(settings, cell),
-        host="127.0.0.1",
-        port=port,
-        log_level="warning",
-        ws="websockets-sansio",
-        lifespan="on",
-        timeout_graceful_shutdown=2,
+    config = server_config(
+        create_app(settings, cell), "127.0.0.1", port, lifespan="on", timeout_graceful_shutdown=2
     )
     server = uvicorn.Server(config)
     task = asyncio.create_task(server.serve())

@@ -27,6 +27,18 @@ class SpecError(ValueError):
 
 
 @dataclass(frozen=True)
+class Where:
+    """Where a cell's files are: relative paths start at the cell file; meshes are cached."""
+
+    cell_dir: Path
+    cache_dir: Path
+
+    def resolve(self, relative: str) -> Path:
+        """A path from the cell file, relative to its folder."""
+        return (self.cell_dir / Path(relative).expanduser()).resolve()
+
+
+@dataclass(frozen=True)
 class Built:
     """A kinematic family made from its table, with what the cell needs to know about it."""
 
@@ -66,7 +78,7 @@ def _limits_si(
     return tuple(out)
 
 
-def _type12(spec: schema.Type12, cell_dir: Path) -> Built:
+def _type12(spec: schema.Type12, where: Where) -> Built:
     kin = Type12(*(length / 1000.0 for length in (spec.L1, spec.L2, spec.L3, spec.L4, spec.L5)))
     return Built(
         family="type12",
@@ -79,7 +91,7 @@ def _type12(spec: schema.Type12, cell_dir: Path) -> Built:
     )
 
 
-def _dh(spec: schema.DH, cell_dir: Path) -> Built:
+def _dh(spec: schema.DH, where: Where) -> Built:
     n = len(spec.d)
     for key in ("a", "alpha_deg", "offset_deg"):
         values = getattr(spec, key)
@@ -133,7 +145,7 @@ def _iiwa(spec: schema.DH, limits: Array | None) -> LBRiiwa:
     return LBRiiwa(d[0], d[2], d[4], d[6], limits)
 
 
-def _axis_group(spec: schema.AxisGroup, cell_dir: Path) -> Built:
+def _axis_group(spec: schema.AxisGroup, where: Where) -> Built:
     world = WorldModel()
     group = "group"
     try:
@@ -179,8 +191,32 @@ def _axis_group(spec: schema.AxisGroup, cell_dir: Path) -> Built:
     )
 
 
-def _urdf(spec: schema.Urdf, cell_dir: Path) -> Built:
-    raise SpecError("type", "URDF robots are not available yet")
+def _urdf(spec: schema.Urdf, where: Where) -> Built:
+    # Imported here: yourdfpy and trimesh take ~80 MB and a second; cells without URDF skip them.
+    from ..urdf import UrdfError, link_meshes, load_urdf
+
+    packages = {name: where.resolve(folder) for name, folder in spec.packages.items()}
+    try:
+        robot = load_urdf(where.resolve(spec.file), packages, spec.tip)
+        glbs = link_meshes(robot, where.cache_dir)
+    except UrdfError as exc:
+        raise SpecError("file", str(exc)) from None
+    except Exception as exc:  # trimesh raises many kinds on a broken mesh file
+        raise SpecError("file", f"cannot convert its meshes to GLB: {exc!r}") from None
+    chain = robot.chain
+    return Built(
+        family="urdf",
+        kinematics=chain,
+        joint_names=chain.joint_names,
+        link_names=chain.link_names,
+        limits=tuple(
+            (float(lo), float(hi)) if np.isfinite(lo) and np.isfinite(hi) else None
+            for lo, hi in chain.limits
+        ),
+        linear=tuple(unit == "m" for unit in chain.joint_units),
+        tcp_is_last_link=False,
+        meshes=tuple(glbs.get(link) for link in chain.link_names),
+    )
 
 
 BUILDERS: dict[str, Callable[..., Built]] = {
@@ -191,6 +227,6 @@ BUILDERS: dict[str, Callable[..., Built]] = {
 }
 
 
-def build(spec: schema.Kinematics, cell_dir: Path) -> Built:
+def build(spec: schema.Kinematics, where: Where) -> Built:
     """The family a ``kinematics`` table describes; raises SpecError naming the bad key."""
-    return BUILDERS[spec.type](spec, cell_dir)
+    return BUILDERS[spec.type](spec, where)

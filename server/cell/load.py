@@ -21,7 +21,7 @@ from pydantic import ValidationError
 
 from ..kinematics import pose7_from_matrix
 from . import schema
-from .families import Built, SpecError, build, pose_matrix
+from .families import Built, SpecError, Where, build, pose_matrix
 from .robot import Joint, Robot
 
 DEFAULT_COMMAND_NODE = "motion/grp/{robot}/cmd/pos-abs"
@@ -66,8 +66,22 @@ class Cell:
         return [r for r in self.robots if r.source == source]
 
 
-def load_cell(path: Path, env: Mapping[str, str] | None = None) -> Cell:
-    """The cell described by the TOML file at ``path``; raises CellError."""
+def default_cache_dir() -> Path:
+    """Where converted URDF meshes are kept: ``$LINKVIEW_CACHE_DIR`` or the user's cache."""
+    configured = os.environ.get("LINKVIEW_CACHE_DIR")
+    if configured:
+        return Path(configured)
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "linkview"
+
+
+def load_cell(
+    path: Path, env: Mapping[str, str] | None = None, cache_dir: Path | None = None
+) -> Cell:
+    """The cell described by the TOML file at ``path``; raises CellError.
+
+    ``env`` supplies passwords (default: the environment); ``cache_dir`` keeps
+    URDF meshes converted to GLB (default: ``default_cache_dir()``).
+    """
     env = os.environ if env is None else env
     path = Path(path)
     try:
@@ -82,7 +96,8 @@ def load_cell(path: Path, env: Mapping[str, str] | None = None) -> Cell:
         spec = schema.Cell.model_validate(raw)
     except ValidationError as exc:
         raise CellError(path, [_pydantic_problem(e) for e in exc.errors()]) from None
-    return _Builder(path, spec, env).cell()
+    where = Where(path.resolve().parent, cache_dir or default_cache_dir())
+    return _Builder(path, spec, env, where).cell()
 
 
 def _pydantic_problem(error: Any) -> tuple[str, str]:
@@ -108,9 +123,11 @@ def _pydantic_problem(error: Any) -> tuple[str, str]:
 class _Builder:
     """Checks across keys and builds the SI objects, collecting every problem."""
 
-    def __init__(self, path: Path, spec: schema.Cell, env: Mapping[str, str]) -> None:
+    def __init__(
+        self, path: Path, spec: schema.Cell, env: Mapping[str, str], where: Where
+    ) -> None:
         self.path = path
-        self.dir = path.resolve().parent
+        self.where = where
         self.spec = spec
         self.env = env
         self.problems: list[tuple[str, str]] = []
@@ -145,10 +162,6 @@ class _Builder:
                 )
             first.setdefault(name, i)
 
-    def resolve(self, relative: str) -> Path:
-        """A path from the file, relative to the cell file's folder."""
-        return (self.dir / Path(relative).expanduser()).resolve()
-
     def _source(self, key: str, spec: schema.Source) -> Source | None:
         problems = len(self.problems)
         password = "boschrexroth"
@@ -166,7 +179,7 @@ class _Builder:
                 )
             else:
                 password = self.env[spec.password_env]
-        ca = None if spec.ca is None else self.resolve(spec.ca)
+        ca = None if spec.ca is None else self.where.resolve(spec.ca)
         if ca is not None and not ca.is_file():
             self.problems.append((f"{key}.ca", f"no such file: {ca}"))
         if len(self.problems) > problems:
@@ -186,7 +199,7 @@ class _Builder:
 
     def _robot(self, key: str, spec: schema.Robot) -> Robot | None:
         try:
-            built = build(spec.kinematics, self.dir)
+            built = build(spec.kinematics, self.where)
         except SpecError as exc:
             self.problems.append((f"{key}.kinematics.{exc.key}", str(exc)))
             return None
@@ -287,7 +300,7 @@ class _Builder:
                 (f"{key}.mesh_dir", "URDF robots take their meshes from the URDF's visuals")
             )
             return None
-        folder = self.resolve(spec.mesh_dir)
+        folder = self.where.resolve(spec.mesh_dir)
         if not folder.is_dir():
             self.problems.append((f"{key}.mesh_dir", f"no such folder: {folder}"))
             return None

@@ -24,6 +24,7 @@ from .iiwa import IiwaSolutions, LBRiiwa, iiwa7
 from .motion import SpeedMove, TrapezoidMove, plan_movej, plan_speedj
 from .rpy import matrix_from_rpy, rpy_from_matrix
 from .type12 import Type12, circle_circle_intersection
+from .urdf import UrdfChain, UrdfJoint, UrdfMimic, UrdfTree
 
 __all__ = [
     "DHChain",
@@ -50,4 +51,8 @@ __all__ = [
     "pose7_from_matrix",
     "quat_xyzw_from_matrix",
     "serial_rotary_inverse",
+    "UrdfChain",
+    "UrdfJoint",
+    "UrdfMimic",
+    "UrdfTree",
 ]

@@ -1,4 +1,8 @@
-"""Numerical inverse kinematics for any revolute DH chain: damped least squares.
+"""Numerical inverse kinematics for any serial chain: damped least squares.
+
+``solve_model`` takes any model giving tip poses and Jacobians (revolute and
+prismatic joints alike); ``solve`` is its form for revolute DH chains, whose
+Jacobian comes from the frames.
 
 Levenberg-Marquardt with damping after Sugihara (``lambda = g |e|^2 + w``,
 ``e`` the pose error), joint limits enforced by clipping after each step.
@@ -20,6 +24,8 @@ from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
+
+from ._rotations import wrap_angle
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -78,6 +84,10 @@ def _jacobian_t(frames: Array, modified: bool) -> Array:
     return np.concatenate([linear, z], axis=-1)
 
 
+Model = Callable[[Array], tuple[Array, Array]]
+"""Configurations ``(m, n)`` -> tip poses ``(m, 4, 4)`` and transposed Jacobians ``(m, n, 6)``."""
+
+
 def solve(
     frames_of: Callable[[Array], Array],
     modified: bool,
@@ -86,19 +96,45 @@ def solve(
     q_ref: Array | None,
     seed: int = 0,
 ) -> tuple[Array, BoolArray]:
-    """Joints ``(b, n)`` (rad) putting the flange on ``target`` ``(b, 4, 4)``.
+    """Joints ``(b, n)`` (rad) of a revolute DH chain with its flange on ``target`` ``(b, 4, 4)``.
 
-    ``frames_of`` maps configurations ``(m, n)`` to frames ``(m, n + 1, 4, 4)``.
-    Among a target's converged starts the one nearest ``q_ref`` (sum of
-    absolute differences) wins. Where nothing converged, ``ok`` is False and
-    the joints are ``q_ref`` (or the middle of the limits).
+    ``frames_of`` maps configurations ``(m, n)`` to frames ``(m, n + 1, 4, 4)``;
+    see ``solve_model`` for the rest.
+    """
+
+    def model(q: Array) -> tuple[Array, Array]:
+        frames = frames_of(q)
+        return frames[:, -1], _jacobian_t(frames, modified)
+
+    return solve_model(model, limits, target, q_ref, seed)
+
+
+def solve_model(
+    model: Model,
+    limits: Array,
+    target: Array,
+    q_ref: Array | None,
+    seed: int = 0,
+    periodic: BoolArray | None = None,
+) -> tuple[Array, BoolArray]:
+    """Joints ``(b, n)`` (rad or m) putting ``model``'s tip on ``target`` ``(b, 4, 4)``.
+
+    ``limits`` ``(n, 2)`` may be infinite; random starts are then drawn in
+    [-pi, pi] for that joint. ``periodic`` joints (continuous, rad) are kept
+    within half a turn of the reference, which changes no pose. Among a
+    target's converged starts the one nearest ``q_ref`` (sum of absolute
+    differences) wins. Where nothing converged, ``ok`` is False and the joints
+    are ``q_ref`` (or the middle of the limits) clipped to the limits.
     """
     b, n = target.shape[0], limits.shape[0]
-    lo, span = limits[:, 0], limits[:, 1] - limits[:, 0]
+    finite = np.isfinite(limits)
+    lo = np.where(finite[:, 0], limits[:, 0], -np.pi)
+    span = np.where(finite[:, 1], limits[:, 1], np.pi) - lo
     rng = np.random.default_rng(seed)
     ref = np.broadcast_to(lo + 0.5 * span, (b, n)) if q_ref is None else q_ref
-    result = np.clip(ref, lo, limits[:, 1])
+    result = np.clip(ref, limits[:, 0], limits[:, 1])
     ok = np.zeros(b, dtype=bool)
+    wrap = None if periodic is None or not periodic.any() else np.flatnonzero(periodic)
 
     # Rows are (target, start): every array below has shape (active targets, STARTS, ...).
     active = np.arange(b)
@@ -109,8 +145,10 @@ def solve(
     checked = np.full((b, STARTS), np.inf)  # squared error at the last restart check
     eye = np.eye(n)
     for iteration in range(MAX_ITERATIONS):
-        frames = frames_of(q.reshape(-1, n)).reshape(q.shape[:2] + (n + 1, 4, 4))
-        err, rot = pose_error(goal, frames[:, :, -1])
+        tip, jac_t = model(q.reshape(-1, n))
+        tip = tip.reshape(q.shape[:2] + (4, 4))
+        jac_t = jac_t.reshape(q.shape + (6,))
+        err, rot = pose_error(goal, tip)
         square = np.einsum("...i,...i->...", err, err)
         converged = square < TOLERANCE**2
         if converged.any() and (converged := converged & _small_turn(rot)).any():
@@ -119,23 +157,25 @@ def solve(
             result[active[done]] = q[done][np.arange(cost.shape[0]), np.argmin(cost, axis=-1)]
             ok[active[done]] = True
             keep = ~done
-            active, goal, q, err, square, frames, checked = (
+            active, goal, q, err, square, jac_t, checked = (
                 active[keep],
                 goal[keep],
                 q[keep],
                 err[keep],
                 square[keep],
-                frames[keep],
+                jac_t[keep],
                 checked[keep],
             )
             if active.size == 0:
                 break
-        jac_t = _jacobian_t(frames, modified)
         hessian = jac_t @ jac_t.swapaxes(-1, -2)
         hessian += (DAMPING_GAIN * square + DAMPING_FLOOR)[..., None, None] * eye
         q += np.linalg.solve(hessian, jac_t @ err[..., None])[..., 0]
-        np.maximum(q, lo, out=q)
+        np.maximum(q, limits[:, 0], out=q)
         np.minimum(q, limits[:, 1], out=q)
+        if wrap is not None:
+            centre = ref[active][:, None, wrap]
+            q[..., wrap] = centre + wrap_angle(q[..., wrap] - centre)
         if iteration % RESTART_EVERY == RESTART_EVERY - 1:
             # Redraw stuck starts; ones converging, even slowly, keep going.
             stuck = (square > RESTART_ABOVE**2) | (square > RESTART_PROGRESS * checked)

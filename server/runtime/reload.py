@@ -37,4 +37,8 @@ async def follow_cell_file(
             runtime.reject(str(exc))
             continue
         log.info("cell file %s changed: reloading", path)
-        await runtime.apply(cell)
+        try:
+            await runtime.apply(cell)
+        except Exception as exc:  # the watcher must outlive any one bad version of the file
+            log.exception("reloading %s failed", path)
+            runtime.reject(f"{path}: reloading failed: {exc}")

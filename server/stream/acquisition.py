@@ -11,6 +11,7 @@ import asyncio
 import contextlib
 import logging
 import time
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -18,6 +19,7 @@ import numpy as np
 
 from ..cell import Robot
 from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
+from .buckets import Buckets
 from .frames import RobotFrame, compute_frame, encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
@@ -29,6 +31,7 @@ STATUS_EVERY_S = 1.0
 """Status is republished this often, so pages show a live sample age."""
 STATE_CHECK_S = 0.1
 """How often a source is checked for turning stale between samples."""
+KINEMATICS_BUCKETS_S = (1e-5, 2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
 
 
 @dataclass(frozen=True)
@@ -67,6 +70,12 @@ class Acquisition:
         self.set_robots(robots, indices)
         self._status_sent = 0.0
         self._state_sent = ""
+        self.published: Counter[str] = Counter()
+        """Frames published per robot."""
+        self.failures = 0
+        """Times the source failed as a whole."""
+        self.kinematics_time = Buckets(KINEMATICS_BUCKETS_S)
+        """Seconds per sample spent on the poses of every robot of the source."""
 
     def set_robots(self, robots: list[Robot], indices: Mapping[str, int] | None = None) -> None:
         """Swap in new robot definitions that read the same nodes (a reloaded cell)."""
@@ -120,7 +129,10 @@ class Acquisition:
         self._seq += 1
         if self.health.mark_sample():
             self.publish_status()
+        start = time.perf_counter()
         frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
+        self.kinematics_time.observe(time.perf_counter() - start)
+        self.published.update(robot.name for _, robot in self._robots)
         t_sent = time.time()
         binary = encode_binary(frames, self._seq, sample.t_source, t_sent)
         self._hub.publish(
@@ -155,6 +167,7 @@ class Acquisition:
         return frame
 
     def _report_error(self, error: str) -> None:
+        self.failures += 1
         if self.health.mark_error(error):
             log.error("data source %s: %s", self.health.name, error)
             self.publish_status()

@@ -6,6 +6,10 @@ viewer that reads slowly therefore skips stale frames instead of queueing
 them, and can never slow the others down. A message may be meant for one
 protocol version only (protocol 1's JSON frames, protocol 2's binary ones);
 viewers get what their protocol speaks.
+
+A viewer whose connection can take a message right away (nothing pending,
+its socket keeping up) gets it written at once by ``send_now``, which the
+web layer provides; only the others keep it pending for their own task.
 """
 
 from __future__ import annotations
@@ -13,16 +17,22 @@ from __future__ import annotations
 import asyncio
 import itertools
 from collections import Counter
-from dataclasses import dataclass
+from collections.abc import Callable
+
+from .buckets import Buckets
 
 
-@dataclass(frozen=True, slots=True)
 class Message:
     """An encoded message, the same bytes for every viewer."""
 
-    payload: str | bytes
-    t_source: float | None = None
-    """When the data layer sampled what a frame message shows (unix s); None otherwise."""
+    __slots__ = ("payload", "t_source", "wire")
+
+    def __init__(self, payload: str | bytes, t_source: float | None = None) -> None:
+        self.payload = payload
+        self.t_source = t_source
+        """When the data layer sampled what a frame message shows (unix s); None otherwise."""
+        self.wire: bytes | None = None
+        """The message as the transport sends it, made once by the first viewer to need it."""
 
 
 class Viewer:
@@ -30,9 +40,15 @@ class Viewer:
 
     _ids = itertools.count(1)
 
-    def __init__(self, protocol: int = 1) -> None:
+    def __init__(
+        self, protocol: int = 1, send_now: Callable[[Message], bool] | None = None
+    ) -> None:
         self.id = next(self._ids)
         self.protocol = protocol
+        self.send_now = send_now
+        """Sends a message at once if the connection can take it (True), else declines."""
+        self.busy = False
+        """Set while the viewer's task sends: a message sent now could overtake older ones."""
         self._pending: dict[str, Message] = {}
         self._ready = asyncio.Event()
         self.closed = False
@@ -40,7 +56,10 @@ class Viewer:
         """Messages overwritten before this viewer read them."""
 
     def offer(self, key: str, message: Message) -> None:
-        """Replace the pending message for ``key``; never blocks."""
+        """Send ``message`` now if possible, else replace the pending one for ``key``."""
+        if self.send_now is not None and not self._pending and not self.busy:
+            if self.send_now(message):
+                return
         if key in self._pending:
             self.dropped += 1
         self._pending[key] = message
@@ -74,6 +93,8 @@ class Hub:
         self._latest: dict[str, tuple[Message, int | None]] = {}
         self._protocols: Counter[int] = Counter()
         self.dropped_by_departed = 0
+        self.delay = Buckets()
+        """Seconds from the data layer's sample to the send of each frame message, per viewer."""
 
     def publish(self, key: str, message: Message, protocol: int | None = None) -> None:
         """Offer ``message`` (already encoded) to every viewer of ``protocol`` (None: all)."""
@@ -88,9 +109,11 @@ class Hub:
         for viewer in self._viewers:
             viewer.forget()
 
-    def join(self, protocol: int = 1) -> Viewer:
+    def join(
+        self, protocol: int = 1, send_now: Callable[[Message], bool] | None = None
+    ) -> Viewer:
         """A new viewer, primed with the newest message of every key for its protocol."""
-        viewer = Viewer(protocol)
+        viewer = Viewer(protocol, send_now)
         for key, (message, only) in self._latest.items():
             if only is None or only == protocol:
                 viewer.offer(key, message)
@@ -107,7 +130,11 @@ class Hub:
 
     def wants(self, protocol: int) -> bool:
         """True when a viewer of ``protocol`` is connected (so its messages are worth encoding)."""
-        return self._protocols[protocol] > 0
+        return self.viewers_of(protocol) > 0
+
+    def viewers_of(self, protocol: int) -> int:
+        """Viewers of ``protocol`` connected now."""
+        return self._protocols[protocol]
 
     @property
     def viewer_count(self) -> int:

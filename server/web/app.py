@@ -19,7 +19,8 @@ from ..paths import STATIC_DIR
 from ..runtime import Runtime
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import routes, transformation, ws
+from . import metrics, routes, transformation, ws
+from .guards import Gatekeeper, LimitBody
 
 
 def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
@@ -51,10 +52,15 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
             await runtime.stop()
 
     app = FastAPI(title="linkview", lifespan=lifespan)
+    app.state.max_viewers = settings.max_viewers
+    token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
+    app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin)
+    app.add_middleware(LimitBody)
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.include_router(routes.router)
     app.include_router(ws.router)
     app.include_router(transformation.router)
+    app.include_router(metrics.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 

@@ -1,11 +1,19 @@
-"""REST routes of the Transformation service: ``/api/robots/{name}/fk`` and ``/ik`` (SI units)."""
+"""REST routes of the Transformation service: ``/fk``, ``/ik`` and ``/move`` of a robot (SI units).
+
+Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed and
+validated in the threadpool with the kinematics: a large request costs its
+sender time, never the event loop that streams to viewers. Models are strict:
+``"0.1"`` or ``true`` where a number belongs is a 422, not a guess.
+"""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, TypeVar
 
 from fastapi import APIRouter, HTTPException, Request
-from pydantic import BaseModel, ConfigDict, Field
+from fastapi.concurrency import run_in_threadpool
+from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..cell import Robot, transformation
 from ..runtime import MoveError
@@ -14,36 +22,47 @@ from .routes import runtime_of
 router = APIRouter(prefix="/api/robots")
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
-JointRow = Annotated[list[Finite], Field(min_length=1, max_length=16)]
+JointRow = Annotated[list[Finite], Field(min_length=1, max_length=32)]
 MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
 MAX_LINK_ROWS = 64
 """Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
 
 
-class ForwardRequest(BaseModel):
+class _Body(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class ForwardRequest(_Body):
     """Joint rows, each in hello order (rad or m)."""
 
-    model_config = ConfigDict(extra="forbid")
     joints: list[JointRow] = Field(min_length=1, max_length=MAX_ROWS)
     links: bool = False
     """Also return every link's pose per row (for drawing a configuration)."""
 
 
-class InverseRequest(BaseModel):
+class InverseRequest(_Body):
     """A TCP pose [x, y, z, qx, qy, qz, qw] (m), a reference posture, and whether to list all."""
 
-    model_config = ConfigDict(extra="forbid")
     tcp: Annotated[list[Finite], Field(min_length=7, max_length=7)]
     joints_ref: JointRow | None = None
     all: bool = False
 
 
-class MoveRequest(BaseModel):
+class MoveRequest(_Body):
     """Target joints in hello order (rad or m)."""
 
-    model_config = ConfigDict(extra="forbid")
     joints: JointRow
+
+
+Body = TypeVar("Body", bound=_Body)
+
+
+def _parse(model: type[Body], raw: bytes) -> Body:
+    try:
+        return model.model_validate_json(raw)
+    except ValidationError as exc:
+        raise RequestValidationError(exc.errors(include_input=False)) from None
 
 
 def _robot(request: Request, name: str) -> Robot:
@@ -53,34 +72,45 @@ def _robot(request: Request, name: str) -> Robot:
     return robot
 
 
-def _run(call: Any, *args: Any) -> dict[str, Any]:
-    try:
-        result: dict[str, Any] = vars(call(*args))
-    except transformation.TransformInputError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from exc
-    return result
-
-
-# Plain ``def`` routes run in FastAPI's threadpool: the numpy work stays off the
-# event loop that streams to viewers.
-@router.post("/{name}/fk")
-def forward(name: str, body: ForwardRequest, request: Request) -> dict[str, Any]:
-    """TCP pose and roll-pitch-yaw for each joint row."""
+def _forward(robot: Robot, raw: bytes) -> dict[str, Any]:
+    body = _parse(ForwardRequest, raw)
     if body.links and len(body.joints) > MAX_LINK_ROWS:
         raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
-    return _run(transformation.forward, _robot(request, name), body.joints, body.links)
+    try:
+        result = transformation.forward(robot, body.joints, body.links)
+    except transformation.TransformInputError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from exc
+    return {k: v for k, v in vars(result).items() if v is not None}
+
+
+def _inverse(robot: Robot, raw: bytes) -> dict[str, Any]:
+    body = _parse(InverseRequest, raw)
+    try:
+        result = transformation.inverse(robot, body.tcp, body.joints_ref, body.all)
+    except transformation.TransformInputError as exc:
+        raise HTTPException(status_code=422, detail=str(exc)) from exc
+    return vars(result)
+
+
+@router.post("/{name}/fk")
+async def forward(name: str, request: Request) -> dict[str, Any]:
+    """TCP pose and roll-pitch-yaw for each joint row (``ForwardRequest``)."""
+    robot = _robot(request, name)
+    return await run_in_threadpool(_forward, robot, await request.body())
 
 
 @router.post("/{name}/ik")
-def inverse(name: str, body: InverseRequest, request: Request) -> dict[str, Any]:
-    """Joint solutions for a TCP pose; ``best`` is nearest ``joints_ref``."""
-    return _run(transformation.inverse, _robot(request, name), body.tcp, body.joints_ref, body.all)
+async def inverse(name: str, request: Request) -> dict[str, Any]:
+    """Joint solutions for a TCP pose (``InverseRequest``); ``best`` is nearest ``joints_ref``."""
+    robot = _robot(request, name)
+    return await run_in_threadpool(_inverse, robot, await request.body())
 
 
 @router.post("/{name}/move", status_code=202)
-async def move(name: str, body: MoveRequest, request: Request) -> dict[str, Any]:
-    """Command a synchronised move to ``joints``; 403 where moves are not allowed."""
+async def move(name: str, request: Request) -> dict[str, Any]:
+    """Command a synchronised move to ``joints`` (``MoveRequest``); 403 where not allowed."""
     robot = _robot(request, name)
+    body = _parse(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
     try:
         await runtime_of(request).move(robot, body.joints)
     except MoveError as exc:

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
+from collections.abc import Callable
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from fastapi.responses import PlainTextResponse
 
 from ..protocol import PROTOCOLS
 from ..runtime import Runtime
+from ..stream import Message
+from ..stream.buckets import Buckets
+from .wire import EXTENSION, FrameWriter, ws_frame
 
 log = logging.getLogger(__name__)
 
@@ -30,20 +36,29 @@ def negotiate(offered: list[str]) -> tuple[str | None, int]:
 async def viewer_socket(websocket: WebSocket) -> None:
     """Stream to one viewer; it only ever gets the newest frame per key."""
     runtime: Runtime = websocket.app.state.runtime
+    if runtime.hub.viewer_count >= websocket.app.state.max_viewers:
+        await websocket.send_denial_response(
+            PlainTextResponse("too many viewers; try again later", status_code=503)
+        )
+        return
     subprotocol, protocol = negotiate(list(websocket.scope.get("subprotocols", [])))
     await websocket.accept(subprotocol=subprotocol)
-    viewer = runtime.hub.join(protocol)
+    viewer = runtime.hub.join(protocol, _direct_sender(websocket, runtime.hub.delay))
     receiver = asyncio.create_task(_drain_incoming(websocket))
     receiver.add_done_callback(lambda _: viewer.close())
     try:
         while not viewer.closed:
             batch = await viewer.take()
+            viewer.busy = True
             async with asyncio.timeout(SEND_TIMEOUT_S):
                 for message in batch:
+                    if message.t_source is not None:
+                        runtime.hub.delay.observe(time.time() - message.t_source)
                     if isinstance(message.payload, bytes):
                         await websocket.send_bytes(message.payload)
                     else:
                         await websocket.send_text(message.payload)
+            viewer.busy = False
     except (WebSocketDisconnect, RuntimeError, ConnectionError):
         pass
     except TimeoutError:
@@ -51,6 +66,26 @@ async def viewer_socket(websocket: WebSocket) -> None:
     finally:
         receiver.cancel()
         runtime.hub.leave(viewer)
+
+
+def _direct_sender(websocket: WebSocket, delay: Buckets) -> Callable[[Message], bool] | None:
+    """Writes a message's frame straight to the socket, where the server offers that."""
+    extension = websocket.scope.get("extensions", {}).get(EXTENSION)
+    if extension is None:
+        return None
+    write: FrameWriter = extension["write"]
+
+    def send_now(message: Message) -> bool:
+        wire = message.wire
+        if wire is None:
+            wire = message.wire = ws_frame(message.payload)
+        if not write(wire):
+            return False
+        if message.t_source is not None:
+            delay.observe(time.time() - message.t_source)
+        return True
+
+    return send_now
 
 
 async def _drain_incoming(websocket: WebSocket) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -45,7 +46,7 @@ def _wait_healthy(url: str, proc: subprocess.Popen[bytes], log: Path) -> None:
                 if response.status == 200:
                     return
         except urllib.error.HTTPError as error:
-            if error.code == 503:
+            if error.code in (401, 503):  # up: no token given, or no source live yet
                 return
         except (urllib.error.URLError, ConnectionError, TimeoutError):
             pass
@@ -54,13 +55,16 @@ def _wait_healthy(url: str, proc: subprocess.Popen[bytes], log: Path) -> None:
 
 
 @contextmanager
-def server_process(port: int, log: Path, *args: str) -> Iterator[str]:
+def server_process(
+    port: int, log: Path, *args: str, env: dict[str, str] | None = None
+) -> Iterator[str]:
     """``python -m server`` on ``port`` (plus ``args``) until the block ends; yields its URL."""
     url = f"http://127.0.0.1:{port}"
     with log.open("ab") as out:
         proc = subprocess.Popen(
             [sys.executable, "-m", "server", "--host", "127.0.0.1", "--port", str(port), *args],
             cwd=ROOT,
+            env=None if env is None else {**os.environ, **env},
             stdout=out,
             stderr=subprocess.STDOUT,
         )

@@ -1,0 +1,96 @@
+"""``GET /metrics``: the service in Prometheus' text format (prometheus-client).
+
+Nothing is counted through prometheus-client on the hot path: a collector
+reads, at scrape time, the plain counters the runtime keeps anyway.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from fastapi import APIRouter, Request, Response
+from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, generate_latest
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
+from prometheus_client.registry import Collector
+
+from ..runtime import Runtime
+from ..stream import PROTOCOL_VERSIONS
+from ..stream.buckets import Buckets
+from .routes import runtime_of
+
+router = APIRouter()
+
+
+def _histogram(name: str, doc: str, labels: list[str]) -> HistogramMetricFamily:
+    return HistogramMetricFamily(name, doc, labels=labels)
+
+
+def _add(family: HistogramMetricFamily, values: list[str], buckets: Buckets) -> None:
+    family.add_metric(values, buckets.cumulative(), buckets.total)
+
+
+class RuntimeCollector(Collector):
+    """Frames, viewers, sources and timings of one Runtime, read when scraped."""
+
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
+
+    def collect(self) -> Iterator[CounterMetricFamily | GaugeMetricFamily | HistogramMetricFamily]:
+        runtime, hub = self.runtime, self.runtime.hub
+        published = CounterMetricFamily(
+            "linkview_frames_published", "Frames computed and published", labels=["robot"]
+        )
+        requests = CounterMetricFamily(
+            "linkview_datalayer_requests", "Requests sent to the data layer", labels=["source"]
+        )
+        errors = CounterMetricFamily(
+            "linkview_datalayer_errors", "Times the data source failed", labels=["source"]
+        )
+        logins = CounterMetricFamily(
+            "linkview_datalayer_logins", "Logins to the identity manager", labels=["source"]
+        )
+        age = GaugeMetricFamily(
+            "linkview_sample_age_seconds", "Age of the newest sample", labels=["source"]
+        )
+        live = GaugeMetricFamily(
+            "linkview_source_live", "1 while samples arrive", labels=["source"]
+        )
+        kinematics = _histogram(
+            "linkview_kinematics_seconds", "Pose computation per sample", ["source"]
+        )
+        for name, source in runtime.sources.items():
+            acquisition = source.acquisition
+            for robot, count in acquisition.published.items():
+                published.add_metric([robot], count)
+            requests.add_metric([name], source.client.traffic.requests)
+            errors.add_metric([name], acquisition.failures)
+            logins.add_metric([name], source.client.tokens.logins)
+            sample_age = source.health.age()
+            if sample_age is not None:
+                age.add_metric([name], sample_age)
+            live.add_metric([name], float(source.health.live))
+            _add(kinematics, [name], acquisition.kinematics_time)
+        yield from (published, requests, errors, logins, age, live, kinematics)
+        yield CounterMetricFamily(
+            "linkview_frames_dropped", "Messages skipped for slow viewers", value=hub.dropped
+        )
+        viewers = GaugeMetricFamily("linkview_viewers", "Viewers connected", labels=["protocol"])
+        for protocol in PROTOCOL_VERSIONS:
+            viewers.add_metric([str(protocol)], hub.viewers_of(protocol))
+        yield viewers
+        delay = _histogram(
+            "linkview_sample_to_send_seconds", "From the data layer's sample to each send", []
+        )
+        _add(delay, [], hub.delay)
+        yield delay
+
+
+@router.get("/metrics", include_in_schema=False)
+async def metrics(request: Request) -> Response:
+    """Prometheus text format."""
+    registry: CollectorRegistry | None = getattr(request.app.state, "metrics", None)
+    if registry is None:
+        registry = CollectorRegistry()
+        registry.register(RuntimeCollector(runtime_of(request)))
+        request.app.state.metrics = registry
+    return Response(generate_latest(registry), media_type=CONTENT_TYPE_LATEST)

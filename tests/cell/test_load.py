@@ -1,0 +1,234 @@
+"""Cell files: every mistake is named by file, key path and reason; good files load as SI."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from server.cell import CellError, load_cell
+
+ROOT = Path(__file__).resolve().parents[2]
+URDF_DIR = ROOT / "cells" / "examples" / "arm6" / "arm6_description"
+
+SOURCE = '[[source]]\nname = "line1"\n'
+TYPE12 = """
+[[robot]]
+name = "kin"
+source = "line1"
+kinematics = { type = "type12" }
+joints = [ { node = "a" }, { node = "b" } ]
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "cell.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def problems(path: Path, env: dict[str, str] | None = None) -> list[str]:
+    with pytest.raises(CellError) as caught:
+        load_cell(path, env=env or {}, cache_dir=path.parent / "cache")
+    lines = str(caught.value).splitlines()
+    assert all(line.startswith(f"{path}: ") for line in lines), lines
+    return [line[len(f"{path}: ") :] for line in lines]
+
+
+def test_an_unknown_key_is_named(tmp_path: Path) -> None:
+    path = write(
+        tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line1"\ncolor = 1')
+    )
+    assert problems(path) == ["robot[0].color: unknown key"]
+
+
+def test_a_wrong_unit_is_named_with_the_units_allowed(tmp_path: Path) -> None:
+    path = write(
+        tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "grad" }')
+    )
+    assert problems(path) == [
+        "robot[0].joints[1].unit: must be 'deg', 'rad', 'mm' or 'm', not 'grad'"
+    ]
+
+
+def test_a_linear_unit_on_a_rotary_joint_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "mm" }'))
+    assert problems(path) == [
+        "robot[0].joints[1].unit: joint 'a1' is rotary: unit must be deg or rad, not 'mm'"
+    ]
+
+
+def test_a_joint_count_that_does_not_match_the_kinematics(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + TYPE12.replace(', { node = "b" }', ""))
+    assert problems(path) == [
+        "robot[0].joints: the type12 kinematics has 2 joints (a0, a1); 1 given"
+    ]
+
+
+def test_an_unknown_kinematics_type(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + TYPE12.replace("type12", "scara"))
+    assert problems(path) == [
+        "robot[0].kinematics: type must be one of type12, dh, axis_group, urdf"
+    ]
+
+
+def test_a_missing_urdf(tmp_path: Path) -> None:
+    robot = TYPE12.replace('{ type = "type12" }', '{ type = "urdf", file = "nope.urdf" }')
+    (message,) = problems(write(tmp_path, SOURCE + robot))
+    assert message.startswith("robot[0].kinematics.file: ") and "nope.urdf" in message
+    assert "not found" in message or "no such file" in message.lower()
+
+
+def test_a_malformed_urdf(tmp_path: Path) -> None:
+    (tmp_path / "bad.urdf").write_text("<robot name='x'><link name='a'></robot>")
+    robot = TYPE12.replace('{ type = "type12" }', '{ type = "urdf", file = "bad.urdf" }')
+    (message,) = problems(write(tmp_path, SOURCE + robot))
+    assert message.startswith("robot[0].kinematics.file: ") and "bad.urdf" in message
+
+
+def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
+    urdf = (URDF_DIR / "urdf" / "arm6.urdf").read_text()
+    (tmp_path / "arm.urdf").write_text(urdf.replace("meshes/base.stl", "meshes/gone.stl"))
+    nodes = ", ".join(f'{{ node = "n{i}" }}' for i in range(6))
+    robot = f"""
+    [[robot]]
+    name = "arm"
+    source = "line1"
+    kinematics.type = "urdf"
+    kinematics.file = "arm.urdf"
+    kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
+    joints = [{nodes}]
+    """
+    (message,) = problems(write(tmp_path, SOURCE + textwrap.dedent(robot)))
+    assert message.startswith("robot[0].kinematics.file: ") and "gone.stl" in message
+
+
+def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
+    (tmp_path / "meshes").mkdir()
+    for link in ("L1", "L5", "L4"):  # L2 is missing
+        (tmp_path / "meshes" / f"{link}.glb").write_bytes(b"glTF")
+    path = write(tmp_path, SOURCE + TYPE12 + 'mesh_dir = "meshes"\n')
+    (message,) = problems(path)
+    assert message.startswith("robot[0].mesh_dir: missing mesh for link(s) L2")
+
+
+def test_an_unknown_source(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line9"'))
+    assert problems(path) == ["robot[0].source: no source named 'line9' (sources: line1)"]
+
+
+def test_duplicate_names(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + SOURCE + TYPE12 + TYPE12)
+    assert problems(path) == [
+        "source[1].name: duplicate name 'line1' (also source[0])",
+        "robot[1].name: duplicate name 'kin' (also robot[0])",
+    ]
+
+
+def test_a_password_variable_that_is_not_set(tmp_path: Path) -> None:
+    source = '[[source]]\nname = "line1"\nurl = "https://192.0.2.1"\npassword_env = "LINE1_PW"\n'
+    path = write(tmp_path, source + TYPE12)
+    assert problems(path) == ["source[0].password_env: environment variable LINE1_PW is not set"]
+    cell = load_cell(path, env={"LINE1_PW": "pw"}, cache_dir=tmp_path)
+    assert cell.sources[0].password == "pw" and "pw" not in repr(cell.sources[0])
+
+
+def test_every_problem_is_reported_at_once(tmp_path: Path) -> None:
+    source = '[[source]]\nname = "line1"\nurl = "https://192.0.2.1"\npassword_env = "PW"\n'
+    robots = TYPE12.replace('source = "line1"', 'source = "x"') + TYPE12.replace(
+        ', { node = "b" }', ""
+    ).replace('name = "kin"', 'name = "other"')
+    assert len(problems(write(tmp_path, source + robots))) == 3
+
+
+def test_toml_syntax_errors_say_where(tmp_path: Path) -> None:
+    (message,) = problems(write(tmp_path, SOURCE + "[[robot]\n"))
+    assert message.startswith("(file): not valid TOML") and "line 3" in message
+
+
+def test_a_joint_value_becomes_si_by_scale_offset_and_unit(tmp_path: Path) -> None:
+    robot = TYPE12.replace(
+        '{ node = "a" }', '{ node = "a", unit = "deg", scale = 0.001, offset = 10.0 }'
+    ).replace('{ node = "b" }', '{ node = "b", unit = "rad", scale = -2.0 }')
+    cell = load_cell(write(tmp_path, SOURCE + robot), env={}, cache_dir=tmp_path)
+    (kin,) = cell.robots
+    values = np.array([5000.0, 0.25])
+    q = kin.to_si(values)
+    np.testing.assert_allclose(q, [np.radians(5000.0 * 0.001 + 10.0), -0.5], rtol=1e-15)
+    np.testing.assert_allclose(kin.from_si(q), values, rtol=1e-12)
+
+
+def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
+    names = ["wrist_3_joint", "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+             "wrist_1_joint", "wrist_2_joint"]  # fmt: skip
+    joints = ", ".join(f'{{ node = "n_{n}", joint = "{n}" }}' for n in names)
+    robot = f"""
+    [[robot]]
+    name = "arm"
+    source = "line1"
+    kinematics.type = "urdf"
+    kinematics.file = "{URDF_DIR}/urdf/arm6.urdf"
+    kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
+    joints = [{joints}]
+    """
+    cell = load_cell(write(tmp_path, SOURCE + textwrap.dedent(robot)), env={}, cache_dir=tmp_path)
+    (arm,) = cell.robots
+    assert [j.name for j in arm.joints][0] == "shoulder_pan_joint"
+    assert arm.joints[0].node == "n_shoulder_pan_joint" and arm.joints[5].node == "n_wrist_3_joint"
+    wrong = textwrap.dedent(robot).replace('joint = "elbow_joint"', 'joint = "knee_joint"')
+    (message,) = problems(write(tmp_path, SOURCE + wrong, "wrong.toml"))
+    assert message.startswith("robot[0].joints[3].joint: no movable joint 'knee_joint'")
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "server", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+
+
+def test_check_prints_one_line_per_robot_and_exits_0() -> None:
+    result = run_cli("check", "cells/demo.toml", "cells/examples/two_controllers.toml")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == [
+        "cells/demo.toml: kin12: type12, 2 joints, source demo, 4 meshes",
+        "cells/demo.toml: iiwa7: dh, 7 joints, source demo, 8 meshes",
+        "cells/demo.toml: positioner: axis_group, 2 joints, source demo, 3 meshes",
+        "cells/examples/two_controllers.toml: arm6: urdf, 6 joints, source line1, 7 meshes",
+        "cells/examples/two_controllers.toml: picker: type12, 2 joints, source line2, 4 meshes",
+    ]
+
+
+def test_check_and_the_server_refuse_a_bad_cell_with_the_same_message(tmp_path: Path) -> None:
+    path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "nope"'))
+    checked = run_cli("check", str(path))
+    started = run_cli("--cell", str(path), "--port", "0")
+    expected = f"{path}: robot[0].source: no source named 'nope' (sources: line1)"
+    assert checked.returncode == 1 and checked.stderr.strip() == expected
+    assert started.returncode == 2 and expected in started.stderr
+    assert "Traceback" not in checked.stderr + started.stderr
+
+
+def test_docs_describe_every_key_and_their_example_is_valid() -> None:
+    import tomllib
+
+    from server.cell import schema
+
+    doc = (ROOT / "docs" / "cell.md").read_text()
+    example = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    schema.Cell.model_validate(tomllib.loads(example))
+    models = (schema.Source, schema.Robot, schema.Joint, schema.Type12, schema.DH)
+    models += (schema.Axis, schema.AxisGroup, schema.Urdf, schema.Pose)
+    prose = re.sub(r"```.*?```", "", doc, flags=re.S)
+    named = {word for span in re.findall(r"`([^`]+)`", prose) for word in re.findall(r"\w+", span)}
+    for model in models:
+        missing = set(model.model_fields) - named
+        assert not missing, f"docs/cell.md does not describe {model.__name__}.{missing}"

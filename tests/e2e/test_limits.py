@@ -1,0 +1,244 @@
+"""Hostile clients get a clean answer fast, and a reading viewer keeps >= 45 frames/s meanwhile.
+
+One server process (token set, 2 s request deadline) serves the whole module. A
+viewer in a background thread reads the protocol-2 stream throughout and
+timestamps every frames message; each test attacks from the main thread and
+checks the frames that arrived during its attack, and the server's RSS.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import struct
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed, InvalidStatus
+from websockets.sync.client import connect as connect_sync
+
+from tests.web._browser import free_port, server_process
+
+TOKEN = "limits-test-token"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+MIN_FPS = 45.0
+MIB = 1 << 20
+
+
+class Viewer(threading.Thread):
+    """Reads the stream in its own event loop and records when each frames message arrived."""
+
+    def __init__(self, ws_url: str) -> None:
+        super().__init__(daemon=True)
+        self.ws_url = ws_url
+        self.arrivals: list[float] = []
+        self.stop = threading.Event()
+        self.error: BaseException | None = None
+
+    def run(self) -> None:
+        try:
+            asyncio.run(self._read())
+        except BaseException as exc:  # reported by the test that notices the gap
+            self.error = exc
+
+    async def _read(self) -> None:
+        async with connect(self.ws_url, subprotocols=["linkview.2"], additional_headers=AUTH) as ws:
+            while not self.stop.is_set():
+                if isinstance(await ws.recv(), bytes):
+                    self.arrivals.append(time.monotonic())
+
+    def fps(self, start: float, end: float) -> float:
+        """Frames messages per second (each holds every robot) between two instants."""
+        return sum(start <= t <= end for t in self.arrivals) / (end - start)
+
+
+class Server:
+    def __init__(self, url: str, pid: int, viewer: Viewer) -> None:
+        self.url, self.pid, self.viewer = url, pid, viewer
+        self.port = int(url.rsplit(":", 1)[1])
+
+    def rss_mib(self) -> float:
+        for line in Path(f"/proc/{self.pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+        raise AssertionError("no VmRSS")
+
+    def attacked(self) -> _Window:
+        return _Window(self)
+
+
+class _Window:
+    """``with server.attacked():`` checks the reading viewer's frame rate over the block."""
+
+    def __init__(self, server: Server) -> None:
+        self.server = server
+
+    def __enter__(self) -> _Window:
+        self.start = time.monotonic()
+        self.rss_before = self.server.rss_mib()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        end = max(time.monotonic(), self.start + 2.0)
+        while time.monotonic() < end:  # a window of at least 2 s
+            time.sleep(0.05)
+        viewer = self.server.viewer
+        assert viewer.is_alive(), f"the reading viewer died: {viewer.error!r}"
+        fps = viewer.fps(self.start, end)
+        assert fps >= MIN_FPS, f"reading viewer fell to {fps:.1f} frames/s"
+        self.rss_growth = self.server.rss_mib() - self.rss_before
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    log = tmp_path_factory.mktemp("limits") / "server.log"
+    env = {"LINKVIEW_VIEWER_TOKEN": TOKEN, "LINKVIEW_CLIENT_TIMEOUT_S": "2"}
+    with server_process(free_port(), log, env=env) as url:
+        pid = int(
+            next(
+                p.name
+                for p in Path("/proc").iterdir()
+                if p.name.isdigit() and f"--port\0{url.rsplit(':', 1)[1]}".encode()
+                in (p / "cmdline").read_bytes()
+            )
+        )
+        viewer = Viewer(url.replace("http", "ws") + "/ws")
+        viewer.start()
+        deadline = time.monotonic() + 15
+        while len(viewer.arrivals) < 50:  # streaming before any attack
+            assert time.monotonic() < deadline, f"no frames: {viewer.error!r}"
+            time.sleep(0.05)
+        yield Server(url, pid, viewer)
+        viewer.stop.set()
+
+
+def _answer(sock: socket.socket, limit: int = 65536) -> bytes:
+    """What the server says before it closes (or the first 64 KiB)."""
+    sock.settimeout(10)
+    data = b""
+    try:
+        while len(data) < limit and (chunk := sock.recv(4096)):
+            data += chunk
+    except (ConnectionResetError, TimeoutError):
+        pass
+    return data
+
+
+def _status(answer: bytes) -> int:
+    return int(answer.split(b" ", 2)[1])
+
+
+def test_a_100_mb_body_is_refused_before_it_is_read(server: Server) -> None:
+    head = (
+        f"POST /api/robots/kin12/fk HTTP/1.1\r\nHost: 127.0.0.1:{server.port}\r\n"
+        f"Authorization: Bearer {TOKEN}\r\nContent-Type: application/json\r\n"
+    )
+    with server.attacked() as window:
+        with socket.create_connection(("127.0.0.1", server.port)) as sock:
+            sock.sendall(f"{head}Content-Length: {100 * MIB}\r\n\r\n".encode())
+            declared = _answer(sock)
+        # Without a length the body streams in; the server stops it after 1 MiB.
+        with socket.create_connection(("127.0.0.1", server.port)) as sock:
+            sock.sendall(f"{head}Transfer-Encoding: chunked\r\n\r\n".encode())
+            chunk = b"%x\r\n%s\r\n" % (64 * 1024, b"[" * (64 * 1024))
+            sent = 0
+            try:
+                while sent < 100 * MIB:
+                    sock.sendall(chunk)
+                    sent += 64 * 1024
+            except (BrokenPipeError, ConnectionResetError):
+                pass
+            streamed = _answer(sock)
+    assert _status(declared) == 413 and b"larger than 1048576 bytes" in declared
+    assert _status(streamed) == 413, streamed[:200]
+    assert sent < 20 * MIB, f"the server kept reading: {sent / MIB:.0f} MiB accepted"
+    assert window.rss_growth < 20, f"RSS grew by {window.rss_growth:.0f} MiB"
+
+
+def test_a_1_mb_header_is_refused(server: Server) -> None:
+    with server.attacked() as window:
+        with socket.create_connection(("127.0.0.1", server.port)) as sock:
+            sock.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\nX-Pad: ")
+            try:
+                for _ in range(16):
+                    sock.sendall(b"a" * 65536)
+                sock.sendall(b"\r\n\r\n")
+            except (BrokenPipeError, ConnectionResetError):
+                pass
+            answer = _answer(sock)
+    assert _status(answer) in (400, 431), answer[:200]
+    assert window.rss_growth < 20
+
+
+@pytest.mark.parametrize("size_mib", [1, 16])
+def test_large_viewer_messages_close_that_viewer_with_1009(server: Server, size_mib: int) -> None:
+    ws_url = server.url.replace("http", "ws") + "/ws"
+    with server.attacked() as window:
+        with connect_sync(ws_url, additional_headers=AUTH, max_size=None) as ws:
+            ws.recv()  # hello
+            # The message's frame header (binary, masked, 64-bit length) and its first MiB:
+            # the server must refuse on the declared size, not after buffering it all.
+            header = struct.pack("!BBQ", 0x82, 0x80 | 127, size_mib * MIB) + b"\0\0\0\0"
+            ws.socket.sendall(header + b"\0" * min(size_mib * MIB, MIB))
+            try:
+                while True:
+                    ws.recv(timeout=10)
+            except ConnectionClosed as exc:
+                closed = exc
+    assert closed.rcvd is not None and closed.rcvd.code == 1009
+    assert window.rss_growth < 20
+
+
+def test_2000_idle_and_half_sent_connections_are_closed(server: Server) -> None:
+    socks: list[socket.socket] = []
+    with server.attacked() as window:
+        for i in range(2000):
+            sock = socket.create_connection(("127.0.0.1", server.port))
+            if i % 2:  # half of them start a request and never finish it
+                sock.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\n")
+            socks.append(sock)
+        deadline = time.monotonic() + 15  # the server's deadline is 2 s
+        open_ = list(socks)
+        while open_ and time.monotonic() < deadline:
+            time.sleep(0.2)
+            still = []
+            for sock in open_:
+                sock.setblocking(False)
+                try:
+                    if sock.recv(1) != b"":
+                        still.append(sock)
+                except BlockingIOError:
+                    still.append(sock)
+                except ConnectionResetError:
+                    pass
+            open_ = still
+    for sock in socks:
+        sock.close()
+    assert not open_, f"{len(open_)} connections still open after 15 s"
+    assert window.rss_growth < 20
+
+
+def test_foreign_origins_and_bad_tokens_are_refused_without_slowing_viewers(
+    server: Server,
+) -> None:
+    ws_url = server.url.replace("http", "ws") + "/ws"
+    cases = [
+        ({"Origin": "https://evil.example"}, 403),
+        ({"Origin": "https://evil.example", **AUTH}, 403),
+        ({}, 401),
+        ({"Authorization": "Bearer wrong"}, 401),
+    ]
+    refused: list[int] = []
+    with server.attacked():
+        for _ in range(25):
+            for headers, _expected in cases:
+                try:
+                    with connect_sync(ws_url, additional_headers=headers, open_timeout=5):
+                        refused.append(101)
+                except InvalidStatus as exc:
+                    refused.append(exc.response.status_code)
+    assert refused == [expected for _ in range(25) for _, expected in cases]
