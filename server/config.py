@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Literal
-from urllib.parse import urlsplit
 
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from .ctrlx import check_base_url, client_ssl
 
 
 class Settings(BaseSettings):
@@ -51,11 +52,15 @@ class Settings(BaseSettings):
 
     @field_validator("ctrlx_url")
     @classmethod
-    def _no_credentials_in_url(cls, url: str | None) -> str | None:
-        # The URL is shown in the log, /api/health and on the page.
-        if url is not None and (urlsplit(url).username or urlsplit(url).password):
-            raise ValueError(
-                "put the user and password in LINKVIEW_CTRLX_USER/_PASSWORD, "
-                "not in the controller URL"
-            )
+    def _usable_url(cls, url: str | None) -> str | None:
+        # A scheme, a host and no credentials (the URL is shown in logs, health and the page).
+        if url is not None:
+            check_base_url(url)
         return url
+
+    @field_validator("ctrlx_ca")
+    @classmethod
+    def _readable_ca(cls, ca: Path | None) -> Path | None:
+        if ca is not None:
+            client_ssl(ca)  # raises ValueError with one clear line
+        return ca

@@ -30,3 +30,34 @@ def test_bad_port_is_refused() -> None:
     result = run_server("--port", "70000")
     assert result.returncode == 2 and "port" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_a_url_without_scheme_is_one_clear_line() -> None:
+    result = run_server("--ctrlx", "192.168.1.1")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    (line,) = [line for line in result.stderr.splitlines() if "error" in line]
+    assert "needs a scheme and a host, e.g. https://192.168.1.1" in line
+
+
+def test_a_missing_ca_file_is_one_clear_line(tmp_path: Path) -> None:
+    result = run_server("--ctrlx", "https://192.0.2.1", "--ctrlx-ca", str(tmp_path / "nope.pem"))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    (line,) = [line for line in result.stderr.splitlines() if "error" in line]
+    assert "nope.pem" in line
+
+
+def test_cell_sources_get_the_same_checks(tmp_path: Path) -> None:
+    cell = tmp_path / "cell.toml"
+    cell.write_text(
+        '[[source]]\nname = "a"\nurl = "ftp://plc"\npassword_env = "HOME"\nca = "x.pem"\n'
+        '[[robot]]\nname = "r"\nsource = "a"\nkinematics = { type = "type12" }\n'
+        'joints = [ { node = "x" }, { node = "y" } ]\n'
+    )
+    result = run_server("check", str(cell))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    lines = result.stderr.splitlines()
+    assert (
+        lines[0]
+        == f"{cell}: source[0].url: controller URL 'ftp://plc': scheme 'ftp' is not http or https"
+    )
+    assert lines[1].startswith(f"{cell}: source[0].ca: ") and "x.pem" in lines[1]

@@ -19,6 +19,7 @@ from typing import Any, Literal
 
 from pydantic import ValidationError
 
+from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
 from . import schema
 from .families import Built, SpecError, Where, build, pose_matrix
@@ -179,9 +180,17 @@ class _Builder:
                 )
             else:
                 password = self.env[spec.password_env]
+        if spec.url is not None:
+            try:
+                check_base_url(spec.url)
+            except ValueError as exc:
+                self.problems.append((f"{key}.url", str(exc)))
         ca = None if spec.ca is None else self.where.resolve(spec.ca)
-        if ca is not None and not ca.is_file():
-            self.problems.append((f"{key}.ca", f"no such file: {ca}"))
+        if ca is not None:
+            try:
+                client_ssl(ca)
+            except ValueError as exc:
+                self.problems.append((f"{key}.ca", str(exc)))
         if len(self.problems) > problems:
             return None
         return Source(

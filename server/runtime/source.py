@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 from aiohttp import web
 
 from ..cell import Robot, Source
-from ..ctrlx import Credentials, DataLayerClient, Mode, client_ssl
+from ..ctrlx import Credentials, DataLayerClient, Mode, check_base_url, client_ssl
 from ..mock_ctrlx import build_app, serve
 from ..stream import Acquisition, Hub, PollSettings, SourceHealth
 from .simulation import machine_for
@@ -85,6 +85,7 @@ async def start_source(
         ssl_context=client_ssl(config.ca, config.insecure),
         timeout_s=defaults.timeout_s,
     )
+    client.warning = check_base_url(url)  # plain http to another machine: credentials in clear
     health = SourceHealth(name=config.name, url=url, mock=mock is not None)
     period = config.period_s or defaults.period_s
     poll = PollSettings(period, config.mode or defaults.mode, keepalive_s=defaults.keepalive_s)
