@@ -21,10 +21,12 @@ target's (the rotation vector, in rad, as it converges).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from ._batch import all_along_last
 from ._rotations import wrap_angle
 
 Array = npt.NDArray[np.float64]
@@ -46,6 +48,50 @@ DAMPING_FLOOR = 1e-12
 DAMPING_GAIN = 0.1  # g: Sugihara's 0.5 damps the first, far-off steps more than needed
 RESTART_ABOVE = 1e-3  # a start whose error is still above this at a restart check is redrawn
 RESTART_PROGRESS = 0.25  # ... and so is one whose squared error shrank by less than this factor
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Inverse-kinematics inputs flattened to rows, with where to start and what to skip.
+
+    ``start`` is ``q_ref`` clipped to the limits (mid-range without it; 0 for
+    unlimited joints): what rows that cannot be solved keep.
+    """
+
+    lead: tuple[int, ...]
+    targets: Array
+    """``(m, 4, 4)``."""
+    ref: Array | None
+    """``(m, n)``, or None without ``q_ref``."""
+    finite: BoolArray
+    """``(m,)``: rows whose target and reference are finite (the only ones solved)."""
+    start: Array
+    """``(m, n)``, writable."""
+
+
+def batch(
+    pose: npt.ArrayLike,
+    q_ref: npt.ArrayLike | None,
+    limits: Array,
+    joints: Callable[[npt.ArrayLike], Array],
+) -> Batch:
+    """Flatten ``pose`` ``(..., 4, 4)`` and ``q_ref`` ``(..., n)`` (checked by ``joints``)."""
+    target = np.asarray(pose, dtype=np.float64)
+    if target.shape[-2:] != (4, 4):
+        raise ValueError(f"pose must have shape (..., 4, 4), got {target.shape}")
+    lead = target.shape[:-2]
+    n = limits.shape[0]
+    targets = target.reshape(-1, 4, 4)
+    ref = None
+    if q_ref is not None:
+        ref = np.broadcast_to(joints(q_ref), lead + (n,)).reshape(-1, n)
+    finite = all_along_last(np.isfinite(targets.reshape(-1, 16)))
+    if ref is not None:
+        finite &= all_along_last(np.isfinite(ref))
+    middle = 0.5 * np.where(np.isfinite(limits), limits, 0.0).sum(axis=1)
+    start = np.clip(middle if ref is None else np.nan_to_num(ref), limits[:, 0], limits[:, 1])
+    start = np.array(np.broadcast_to(start, (targets.shape[0], n)))
+    return Batch(lead, targets, ref, finite, start)
 
 
 def pose_error(target: Array, pose: Array) -> tuple[Array, Array]:

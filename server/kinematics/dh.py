@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _dh_fk, _dh_numeric_ik
+from ._batch import all_along_last
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -26,10 +27,6 @@ Convention = Literal["standard", "modified"]
 # Below this many configurations, stacked 4x4 products beat the column kernel.
 _LARGE_BATCH = 256
 
-
-def _all_along_last(mask: BoolArray) -> BoolArray:
-    """``mask.all(axis=-1)``, always as an array (0-d for one configuration)."""
-    return np.asarray(np.all(mask, axis=-1), dtype=np.bool_)
 
 
 def _vector(values: npt.ArrayLike, n: int, name: str) -> Array:
@@ -114,7 +111,7 @@ class DHChain:
             if not ok:
                 joints = [x if math.isfinite(x) else 0.0 for x in joints]
             return _dh_fk.one_config(self._k, joints), np.array(ok)
-        ok_rows = _all_along_last(np.isfinite(arr))
+        ok_rows = all_along_last(np.isfinite(arr))
         if not ok_rows.all():
             arr = np.where(np.isfinite(arr), arr, 0.0)
         lead = arr.shape[:-1]
@@ -129,7 +126,7 @@ class DHChain:
         """
         arr = self._joints(q)
         if arr.ndim > 1 and arr.size >= _LARGE_BATCH * self.n_joints:
-            ok_rows = _all_along_last(np.isfinite(arr))
+            ok_rows = all_along_last(np.isfinite(arr))
             if not ok_rows.all():
                 arr = np.where(np.isfinite(arr), arr, 0.0)
             flange = _dh_fk.large_batch(self._k, arr.reshape(-1, self.n_joints), flange_only=True)
@@ -147,7 +144,7 @@ class DHChain:
         """True where every joint of ``q`` ``(..., n)`` lies within the limits (inclusive)."""
         lim = self.joint_limits()
         arr = self._joints(q)
-        return _all_along_last((arr >= lim[:, 0]) & (arr <= lim[:, 1]))
+        return all_along_last((arr >= lim[:, 0]) & (arr <= lim[:, 1]))
 
     def inverse(
         self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None
@@ -160,27 +157,16 @@ class DHChain:
         converged (pose error below 1e-10, m and rad) or the input is not
         finite; there ``q`` is ``q_ref`` clipped to the limits (or mid-range).
         """
-        target = np.asarray(pose, dtype=np.float64)
-        lead = target.shape[:-2]
-        flat_target = target.reshape(-1, 4, 4)
         lim = self.joint_limits()
-        ref = None
-        if q_ref is not None:
-            ref = np.broadcast_to(self._joints(q_ref), lead + (self.n_joints,))
-            ref = ref.reshape(-1, self.n_joints)
-        finite = _all_along_last(np.isfinite(flat_target.reshape(-1, 16)))
-        if ref is not None:
-            finite &= _all_along_last(np.isfinite(ref))
-        middle = 0.5 * (lim[:, 0] + lim[:, 1])
-        q = np.clip(middle if ref is None else np.nan_to_num(ref), lim[:, 0], lim[:, 1])
-        q = np.array(np.broadcast_to(q, (flat_target.shape[0], self.n_joints)))
-        ok = np.zeros(flat_target.shape[0], dtype=bool)
+        rows = _dh_numeric_ik.batch(pose, q_ref, lim, self._joints)
+        q, finite = rows.start, rows.finite
+        ok = np.zeros(len(q), dtype=bool)
         if finite.any():
             q[finite], ok[finite] = _dh_numeric_ik.solve(
                 self._frames,
                 self._k.modified,
                 lim,
-                flat_target[finite],
-                None if ref is None else ref[finite],
+                rows.targets[finite],
+                None if rows.ref is None else rows.ref[finite],
             )
-        return q.reshape(lead + (self.n_joints,)), ok.reshape(lead)
+        return q.reshape(rows.lead + (self.n_joints,)), ok.reshape(rows.lead)

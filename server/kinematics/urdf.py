@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _dh_numeric_ik, _urdf_tree
+from ._batch import all_along_last
 from ._urdf_fk import BatchKernel, ScalarKernel, SmallBatchKernel
 from ._urdf_program import compile_frames
 
@@ -66,9 +67,6 @@ class UrdfTree:
     links: tuple[str, ...]
     joints: tuple[UrdfJoint, ...]
 
-
-def _all_along_last(mask: BoolArray) -> BoolArray:
-    return np.asarray(np.all(mask, axis=-1), dtype=np.bool_)
 
 
 class _Kernels:
@@ -159,7 +157,7 @@ class UrdfChain:
             if not ok:
                 joints = [x if math.isfinite(x) else 0.0 for x in joints]
             return kernels.one(joints), np.array(ok)
-        ok_rows = _all_along_last(np.isfinite(arr))
+        ok_rows = all_along_last(np.isfinite(arr))
         if not ok_rows.all():
             arr = np.where(np.isfinite(arr), arr, 0.0)
         lead = arr.shape[:-1]
@@ -212,23 +210,11 @@ class UrdfChain:
         finite; there ``q`` is ``q_ref`` clipped to the limits (or mid-range,
         0 for continuous joints).
         """
-        target = np.asarray(pose, dtype=np.float64)
-        if target.shape[-2:] != (4, 4):
-            raise ValueError(f"pose must have shape (..., 4, 4), got {target.shape}")
-        lead = target.shape[:-2]
-        flat_target = target.reshape(-1, 4, 4)
         lim = self.limits
-        middle = 0.5 * np.where(np.isfinite(lim), lim, 0.0).sum(axis=1)  # 0 if continuous
-        ref = None
-        if q_ref is not None:
-            ref = np.broadcast_to(self._joints(q_ref), lead + (self.n_joints,))
-            ref = ref.reshape(-1, self.n_joints)
-        finite = _all_along_last(np.isfinite(flat_target.reshape(-1, 16)))
-        if ref is not None:
-            finite &= _all_along_last(np.isfinite(ref))
-        q = np.clip(middle if ref is None else np.nan_to_num(ref), lim[:, 0], lim[:, 1])
-        q = np.array(np.broadcast_to(q, (flat_target.shape[0], self.n_joints)))
-        ok = np.zeros(flat_target.shape[0], dtype=bool)
+        todo = _dh_numeric_ik.batch(pose, q_ref, lim, self._joints)
+        lead, flat_target, ref, finite = todo.lead, todo.targets, todo.ref, todo.finite
+        q = todo.start
+        ok = np.zeros(len(q), dtype=bool)
         act = self._active
         if finite.any() and act.size:
             types = np.array(self.joint_types)[act]
