@@ -131,7 +131,9 @@ def test_errors_in_any_language_and_robots_that_are_not_ok() -> None:
     assert first["error"].startswith("unreachable posture")
     assert not second["ok"] and second["joints"] == [] and second["tcp"] == [0.0] * 7
     assert second["error"] == text
-    assert third["ok"] and len(third["links"]) == 7 * len(iiwa.link_names) and third["error"] is None
+    assert (
+        third["ok"] and len(third["links"]) == 7 * len(iiwa.link_names) and third["error"] is None
+    )
     assert 0 < len(fourth["error"].encode()) <= MAX_ERROR_BYTES
     assert js["seq"] == 5  # the wire's seq is 32 bits
 
@@ -148,22 +150,22 @@ def test_hand_built_message_and_an_empty_one() -> None:
     assert robot["tcp"] == list(map(float, range(8, 15)))
 
 
-@pytest.mark.parametrize(
-    "data",
-    [
-        b"",
-        FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0)[:23],  # shorter than the header
-        FRAMES_HEADER.pack(1, 1, 0, 0, 0.0, 0.0),  # version 1
-        FRAMES_HEADER.pack(2, 2, 0, 0, 0.0, 0.0),  # another kind
-        FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0) + b"\0",  # a byte left over
-        FRAMES_HEADER.pack(1, 2, 1, 0, 0.0, 0.0) + ROBOT_HEADER.pack(0, 1, 2, 0, 0),  # cut off
-        FRAMES_HEADER.pack(1, 2, 2, 0, 0.0, 0.0)
-        + ROBOT_HEADER.pack(0, 0, 0, 0, 0)
-        + bytes(28),  # the second robot is missing
-    ],
-)
-def test_what_python_refuses_javascript_refuses(data: bytes) -> None:
-    with pytest.raises((ValueError, struct.error)):
-        decode_frames(data)
-    (js,) = decode_in_node([data])
-    assert "error" in js and js["error"], js
+BAD = [
+    b"",
+    FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0)[:23],  # shorter than the header
+    FRAMES_HEADER.pack(1, 1, 0, 0, 0.0, 0.0),  # version 1
+    FRAMES_HEADER.pack(2, 2, 0, 0, 0.0, 0.0),  # another kind
+    FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0) + b"\0",  # a byte left over
+    FRAMES_HEADER.pack(1, 2, 1, 0, 0.0, 0.0) + ROBOT_HEADER.pack(0, 1, 2, 0, 0),  # cut off
+    FRAMES_HEADER.pack(1, 2, 2, 0, 0.0, 0.0)
+    + ROBOT_HEADER.pack(0, 0, 0, 0, 0)
+    + bytes(28),  # the second robot is missing
+]
+
+
+def test_what_python_refuses_javascript_refuses() -> None:
+    for data in BAD:
+        with pytest.raises((ValueError, struct.error)):
+            decode_frames(data)
+    for data, js in zip(BAD, decode_in_node(BAD), strict=True):
+        assert "error" in js and js["error"], (data, js)
