@@ -2,7 +2,11 @@ import * as THREE from 'three';
 
 const _ndc = new THREE.Vector3();
 
-/** Robot name tags that follow the robots on screen (HTML, so they stay crisp). */
+/**
+ * Robot name tags that follow the robots on screen (HTML, so they stay crisp),
+ * with a robot's note beside its name while it is not live (its error, or why
+ * it is grey).
+ */
 class Labels {
 
 	constructor( container ) {
@@ -24,10 +28,13 @@ class Labels {
 			tag.hidden = true;
 			const text = document.createElement( 'span' );
 			text.textContent = name;
-			tag.append( text );
+			const note = document.createElement( 'span' );
+			note.className = 'note';
+			note.hidden = true;
+			tag.append( text, note );
 			tag.style.color = `#${view.color.getHexString()}`;
 			this.container.append( tag );
-			this._tags.set( name, tag );
+			this._tags.set( name, { tag, note } );
 
 		}
 
@@ -35,7 +42,7 @@ class Labels {
 
 	refreshColors( views ) {
 
-		for ( const [ name, tag ] of this._tags ) {
+		for ( const [ name, { tag } ] of this._tags ) {
 
 			const view = views.get( name );
 			if ( view ) tag.style.color = `#${view.color.getHexString()}`;
@@ -48,9 +55,12 @@ class Labels {
 
 		const width = this.container.clientWidth;
 		const height = this.container.clientHeight;
-		for ( const [ name, tag ] of this._tags ) {
+		for ( const [ name, { tag, note } ] of this._tags ) {
 
 			const view = views.get( name );
+			const text = view ? view.note : null;
+			if ( note.textContent !== ( text ?? '' ) ) note.textContent = text ?? '';
+			note.hidden = ! text;
 			if ( ! view || ! view.anchor || ! view.group.visible ) {
 
 				tag.hidden = true;
