@@ -94,6 +94,14 @@ class App {
 
 		}
 		quality.addEventListener( 'change', () => this.quality.setMode( quality.value === 'auto' ? 'auto' : Number( quality.value ) ) );
+		// ?quality=N pins a level from the start (a bookmark for a slow machine; tests, benchmarks).
+		const pinned = new URLSearchParams( window.location.search ).get( 'quality' );
+		if ( pinned !== null && quality.querySelector( `option[value="${CSS.escape( pinned )}"]` ) ) {
+
+			quality.value = pinned;
+			this.quality.setMode( pinned === 'auto' ? 'auto' : Number( pinned ) );
+
+		}
 		byId( 'selected-robot' ).addEventListener( 'change', ( event ) => this.select( event.target.value ) );
 		this._onKey = ( event ) => {
 

@@ -2,7 +2,7 @@ import { Banner } from './banner.js';
 import { button, checkbox, element, setText } from './dom.js';
 import { NEAR_LIMIT } from './plots.js';
 import { rpyFromQuaternion } from './rpy.js';
-import { RAD_TO_DEG, displayScale, formatJoint } from './units.js';
+import { RAD_TO_DEG, displayScale, fixed, formatJoint } from './units.js';
 
 const SERVER_TEXT = {
 	connecting: 'server: connecting',
@@ -249,8 +249,8 @@ class Hud {
 
 				const rpy = rpyFromQuaternion( tcp[ 3 ], tcp[ 4 ], tcp[ 5 ], tcp[ 6 ] );
 				const text = {
-					x: ( tcp[ 0 ] * 1000 ).toFixed( 1 ), y: ( tcp[ 1 ] * 1000 ).toFixed( 1 ), z: ( tcp[ 2 ] * 1000 ).toFixed( 1 ),
-					roll: ( rpy[ 0 ] * RAD_TO_DEG ).toFixed( 1 ), pitch: ( rpy[ 1 ] * RAD_TO_DEG ).toFixed( 1 ), yaw: ( rpy[ 2 ] * RAD_TO_DEG ).toFixed( 1 ),
+					x: fixed( tcp[ 0 ] * 1000 ), y: fixed( tcp[ 1 ] * 1000 ), z: fixed( tcp[ 2 ] * 1000 ),
+					roll: fixed( rpy[ 0 ] * RAD_TO_DEG ), pitch: fixed( rpy[ 1 ] * RAD_TO_DEG ), yaw: fixed( rpy[ 2 ] * RAD_TO_DEG ),
 				};
 				for ( const key in text ) setText( card.fields[ key ], text[ key ] );
 				card.shown = { joints: Array.from( frame.joints ), tcp: text };

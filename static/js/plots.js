@@ -6,7 +6,7 @@ const CAPACITY = 1024; // samples per robot: 10 s at up to 100 samples/s
 const MIN_SPACING_MS = 9; // faster sources are thinned to fit the window
 const UPDATE_MS = 50; // 20 redraws a second
 const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
-const PLOT_HEIGHT = 58;
+const PLOT_HEIGHT = 50;
 
 /**
  * The last WINDOW_S seconds of one robot's joints, in a ring buffer: a fixed

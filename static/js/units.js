@@ -15,12 +15,20 @@ function displayUnit( joint ) {
 
 }
 
+/** `value.toFixed(digits)`, without the "-0.0" of tiny negatives. */
+function fixed( value, digits = 1 ) {
+
+	const text = value.toFixed( digits );
+	return Number( text ) === 0 ? ( 0 ).toFixed( digits ) : text;
+
+}
+
 /** A joint value for people: degrees for rotary joints, millimetres for linear ones. */
 function formatJoint( value, joint ) {
 
 	if ( ! Number.isFinite( value ) ) return '—';
-	return `${( value * displayScale( joint ) ).toFixed( 1 )}${joint.unit === 'm' ? ' mm' : '°'}`;
+	return `${fixed( value * displayScale( joint ) )}${joint.unit === 'm' ? ' mm' : '°'}`;
 
 }
 
-export { RAD_TO_DEG, displayScale, displayUnit, formatJoint };
+export { RAD_TO_DEG, displayScale, displayUnit, fixed, formatJoint };
