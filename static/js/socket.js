@@ -3,7 +3,7 @@ import { decodeFrames, isFrames } from './protocol2.js';
 
 const SUBPROTOCOL = 'linkview.2'; // server/protocol.py PROTOCOLS
 const MIN_DELAY_MS = 500;
-const MAX_DELAY_MS = 8000;
+const MAX_DELAY_MS = 4000;
 
 /** `ws(s)://<this host>/ws`: the server that served the page also streams to it. */
 function defaultUrl() {
@@ -20,7 +20,7 @@ function defaultUrl() {
  *
  * Its state, reported to `onState(state)`, is what the operator needs to know:
  * 'connecting' until the first connection, then 'connected' or 'lost'. Retries
- * (exponential backoff, 0.5 s doubling to 8 s) do not change it: a page that
+ * (exponential backoff, 0.5 s doubling to 4 s) do not change it: a page that
  * lost its server says so once until it has it back, instead of flipping
  * between "lost" and "connecting" at every attempt.
  */

@@ -103,10 +103,11 @@ class Watched:
     page_errors: list[str] = field(default_factory=list)
     requests: list[str] = field(default_factory=list)
 
-    def assert_clean(self) -> None:
-        """No console error and no uncaught exception so far."""
+    def assert_clean(self, expected: str | None = None) -> None:
+        """No uncaught exception and no console error (but those starting with ``expected``)."""
         assert not self.page_errors, self.page_errors
-        assert not self.console_errors, self.console_errors
+        errors = [e for e in self.console_errors if expected is None or not e.startswith(expected)]
+        assert not errors, errors
 
 
 def watch(page: Page) -> Watched:
