@@ -21,7 +21,7 @@ const RETRY_MS = 30000; // a level that proved too slow is not retried before th
 
 /**
  * Counts animation frames and picks the quality level. In 'auto' it steps down
- * one level whenever a 2 s window averages below 30 frames/s, and up one level
+ * one level whenever a 2 s window averages below 30 frames/s (two below 15), and up one level
  * after 8 s at 50 frames/s or more, but not back into a level that was too slow
  * until a back-off (30 s, doubling each time it fails again) has passed, so it
  * does not oscillate. A pinned level stays whatever the frame rate.
@@ -84,10 +84,13 @@ class Quality {
 
 		if ( this.fps < TARGET_FPS && this.level < LEVELS.length - 1 ) {
 
-			// This level is too slow: do not come back to it for a while.
+			// This level is too slow: do not come back to it for a while. Far too
+			// slow (under half the target) skips a level, so a slow machine gets
+			// usable sooner.
 			const [ , backoff ] = this._retryAfter.get( this.level ) || [ 0, RETRY_MS / 2 ];
 			this._retryAfter.set( this.level, [ time + 2 * backoff, 2 * backoff ] );
-			this._set( this.level + 1, time );
+			const steps = this.fps < TARGET_FPS / 2 ? 2 : 1;
+			this._set( Math.min( this.level + steps, LEVELS.length - 1 ), time );
 			return;
 
 		}
