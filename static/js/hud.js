@@ -129,8 +129,8 @@ class Hud {
 			const before = old.get( robot.name );
 			this._cards.set( robot.name, {
 				card, swatch, show: show.input, trail: trail.input, fields, rows, state, error,
-				counted: before ? before.counted : view.framesReceived, // views survive a reconnect
-				time: performance.now(), rate: before ? before.rate : 0, shown: null,
+				counted: view.framesReceived, since: undefined, time: - Infinity,
+				rate: before ? before.rate : 0, shown: null,
 			} );
 
 		}
@@ -258,14 +258,18 @@ class Hud {
 			}
 
 		}
-		if ( now - card.time >= 1000 ) {
+		const last = view.lastFrame;
+		// Frames per second of sample time (t_source), not of arrival: after a stall the
+		// browser hands over what it buffered in one burst, which is no faster a stream.
+		if ( last && now - card.time >= 1000 ) {
 
-			card.rate = ( view.framesReceived - card.counted ) * 1000 / ( now - card.time );
+			const span = card.since === undefined ? 0 : last.t_source - card.since;
+			if ( span > 0 ) card.rate = ( view.framesReceived - card.counted ) / span;
 			card.counted = view.framesReceived;
+			card.since = last.t_source;
 			card.time = now;
 
 		}
-		const last = view.lastFrame;
 		if ( last ) {
 
 			const latency = view.latencyMs === null ? '—' : `${view.latencyMs.toFixed( 0 )} ms`;
