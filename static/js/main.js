@@ -64,6 +64,14 @@ window.linkview = Object.freeze( {
 		return { robot: app.sim.view ? app.sim.view.name : null, ghosts: app.sim.ghosts.length, selected: app.sim.selected, jogs: app.sim.jogs, moving: app.sim.moving ? { ...app.sim.moving } : null };
 
 	},
+	/** Where the camera is and what it looks at (world frame, m). */
+	get camera() {
+
+		const { position } = app.stage.camera;
+		const { target } = app.stage.controls;
+		return { position: position.toArray(), target: target.toArray() };
+
+	},
 	/** Draw calls and triangles of the last rendered frame. */
 	get renderInfo() {
 

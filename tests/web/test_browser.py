@@ -192,6 +192,32 @@ def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched) -> None:
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 2")
 
 
+def _view_direction(page: Page) -> list[float]:
+    camera = page.evaluate("window.linkview.camera")
+    d = [p - t for p, t in zip(camera["position"], camera["target"], strict=True)]
+    norm = math.hypot(*d)
+    return [v / norm for v in d]
+
+
+def test_view_presets_focus_and_home(viewer: Watched) -> None:
+    page = viewer.page
+    page.click("button[data-view='top']")
+    assert _view_direction(page)[2] > 0.99  # looking down
+    page.click("button[data-view='front']")
+    assert _view_direction(page)[1] < -0.99  # from -Y
+    page.click("button[data-view='side']")
+    assert _view_direction(page)[0] > 0.99  # from +X
+    page.click("button[aria-label='focus the camera on kin12']")
+    target = page.evaluate("window.linkview.camera.target")
+    base = page.evaluate("window.linkview.linkMatrices('kin12')[0]")
+    assert math.dist(target[:2], base[12:14]) < 0.4, (target, base)  # kin12 is ~0.3 m wide
+    page.keyboard.press("Home")
+    x, y, z = _view_direction(page)
+    assert x > 0.3 and y < -0.5 and z > 0.3, (x, y, z)  # back to the iso view of everything
+    labels = page.evaluate("[...document.querySelectorAll('.label')].map(l => !l.hidden)")
+    assert labels == [True, True, True]  # every robot is on screen
+
+
 def _type_target(page: Page, values: dict[str, float]) -> None:
     for key, value in values.items():
         page.fill(f"#target-{key}", f"{value:.1f}")

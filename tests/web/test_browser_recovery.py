@@ -110,6 +110,9 @@ def test_a_controller_that_is_away_then_has_an_outage(browser: Browser, tmp_path
         assert "cannot reach" in banner(page)
         assert page.inner_text("#pill-controllers") == "controller: error"
         assert page.inner_text("#pill-server") == "server: connected"
+        # A real controller (not an embedded mock, no --allow-commands): nothing may move it.
+        assert page.evaluate("window.linkview.sim.robot") is None
+        assert page.is_hidden("#sim")
         # Before any frame the robots are drawn at their zero pose, greyed.
         page.wait_for_function(
             "() => ['kin12', 'iiwa7', 'positioner'].every(n => {"
