@@ -45,7 +45,7 @@ LEVELS = [
     ("no antialiasing", False, False),
     ("pixel ratio 1", False, False),
     ("no environment", False, False),
-    ("simple materials", False, False),
+    ("simple meshes", False, False),
 ]
 WARM_UP_MS = 3000
 AUTO_SETTLE_MS = 25_000

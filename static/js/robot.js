@@ -1,4 +1,5 @@
 import * as THREE from 'three';
+import { SimplifyModifier } from 'three/addons/modifiers/SimplifyModifier.js';
 import { Trail } from './trail.js';
 
 const PALETTE = [ 0x2f6fd6, 0xf07a1a, 0x17a08f, 0x9b4dca, 0xd6405a, 0x6b8e23 ];
@@ -15,6 +16,34 @@ const _up = new THREE.Vector3( 0, 1, 0 );
 // One grey for every robot that is not live (no frame yet, in error, source down).
 const GREY = new THREE.MeshStandardMaterial( { color: 0xa3a8b0, roughness: 0.85, metalness: 0, transparent: true, opacity: 0.6 } );
 const _simple = new WeakMap(); // PBR material -> its Lambert stand-in
+const _coarse = new WeakMap(); // geometry -> Promise of its simplified copy
+const SIMPLE_SHARE = 0.3; // of a mesh's vertices kept at the lowest quality
+let _simplifier = null;
+
+// Software rendering also pays per triangle: the lowest level draws each mesh with
+// about a third of its vertices (meshoptimizer through three's SimplifyModifier;
+// fast, and shared by every mesh using the same geometry).
+function coarseGeometry( geometry ) {
+
+	let coarse = _coarse.get( geometry );
+	if ( coarse === undefined ) {
+
+		if ( _simplifier === null ) _simplifier = new SimplifyModifier();
+		const count = geometry.attributes.position.count;
+		coarse = count < 200
+			? Promise.resolve( geometry )
+			: _simplifier.modify( geometry, Math.floor( count * ( 1 - SIMPLE_SHARE ) ) ).catch( ( err ) => {
+
+				console.warn( 'linkview: could not simplify a mesh; drawing it whole', err );
+				return geometry;
+
+			} );
+		_coarse.set( geometry, coarse );
+
+	}
+	return coarse;
+
+}
 
 // Lambert costs a fraction of PBR per pixel, which is what software rendering
 // runs out of first; colour and transparency are kept, so robots stay recognisable.
@@ -90,6 +119,7 @@ class RobotView {
 		this.trailOn = true;
 		this._sticks = []; // [cylinder, from node, to object] of stand-ins
 		this._materials = new Map(); // link mesh -> its own material
+		this._geometries = new Map(); // link mesh (from a mesh file) -> its own geometry
 		this.greyed = false;
 		this.simple = false;
 
@@ -141,6 +171,7 @@ class RobotView {
 					child.castShadow = true;
 					child.receiveShadow = true;
 					this._materials.set( child, child.material );
+					this._geometries.set( child, child.geometry );
 
 				}
 
@@ -246,6 +277,28 @@ class RobotView {
 
 			const base = this.greyed ? GREY : own;
 			mesh.material = this.simple ? simpleMaterial( base ) : base;
+
+		}
+		this._applyGeometries();
+
+	}
+
+	// The simplified geometry arrives asynchronously; whichever mode holds when it does wins.
+	_applyGeometries() {
+
+		for ( const [ mesh, own ] of this._geometries ) {
+
+			if ( ! this.simple ) {
+
+				mesh.geometry = own;
+				continue;
+
+			}
+			coarseGeometry( own ).then( ( coarse ) => {
+
+				if ( this.simple ) mesh.geometry = coarse;
+
+			} );
 
 		}
 

@@ -15,6 +15,7 @@ ENTRIES=(
   examples/jsm/loaders/GLTFLoader.js
   examples/jsm/controls/OrbitControls.js
   examples/jsm/controls/TransformControls.js
+  examples/jsm/modifiers/SimplifyModifier.js
   examples/jsm/environments/RoomEnvironment.js
 )
 
