@@ -191,6 +191,13 @@ def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched) -> None:
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints === 0")
     page.check("input[aria-label='draw the TCP trail of iiwa7']")
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 2")
+    # A shorter trail: at 50 samples/s, 1 s holds at most some 50 points.
+    page.fill("#trail-seconds", "1")
+    page.dispatch_event("#trail-seconds", "change")
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.linkview.robotState('positioner').trailPoints") <= 52
+    page.fill("#trail-seconds", "5")
+    page.dispatch_event("#trail-seconds", "change")
 
 
 def _view_direction(page: Page) -> list[float]:
@@ -241,7 +248,9 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
     assert sim["ghosts"] >= 2 and sim["selected"] >= 0, sim  # the iiwa reaches it several ways
     assert page.locator("#solutions input[type=radio]:checked").count() == 1
     assert "reach the target" in page.inner_text("#sim-status")
+    page.check("#gizmo-on")  # the target can be dragged in the view too
     _screenshot(page, "ghosts.png")
+    page.uncheck("#gizmo-on")
 
     page.click("#move")
     page.wait_for_function(
@@ -296,6 +305,18 @@ def test_every_control_says_what_it_does(viewer: Watched) -> None:
            }).map(el => el.outerHTML)"""
     )
     assert not unnamed, unnamed
+
+
+def test_theme_follows_the_color_scheme(viewer: Watched) -> None:
+    page = viewer.page
+    panel = "getComputedStyle(document.getElementById('hud')).backgroundColor"
+    page.emulate_media(color_scheme="light")
+    light = page.evaluate(panel)
+    page.emulate_media(color_scheme="dark")
+    dark = page.evaluate(panel)
+    page.emulate_media(color_scheme="light")
+    channels = [float(c) for c in dark[dark.index("(") + 1 : -1].split(",")[:3]]
+    assert light != dark and max(channels) < 80, (light, dark)
 
 
 def test_quality_can_be_pinned_and_stays_legible(viewer: Watched) -> None:
