@@ -126,7 +126,11 @@ def test_a_controller_that_is_away_then_has_an_outage(browser: Browser, tmp_path
         assert matrices[-1][14] > 1.0, matrices[-1]
 
         with mock_process(mock_port, tmp_path / "mock.log") as mock:
-            open_page(page, f"{url}/?quality=5", TIMEOUT_MS)
+            # The controller is there now: the same page gets going without a reload.
+            page.wait_for_function(
+                "() => Object.values(window.linkview.framesApplied).every(c => c > 0)",
+                timeout=TIMEOUT_MS,
+            )
             page.wait_for_function(
                 "() => document.getElementById('banner').hidden", timeout=TIMEOUT_MS
             )
