@@ -26,13 +26,13 @@ class App {
 		this.root = root;
 		this.stage = new Stage( root.getElementById( 'viewport' ) );
 		this.robots = new Robots( this.stage.world );
-		this.clock = new ServerClock();
 		this.hud = new Hud( root, {
 			onShow: ( name, on ) => this.setShown( name, on ),
 			onTrail: ( name, on ) => this.views.get( name )?.setTrail( on ),
 			onFocus: ( name ) => this.focus( name ),
 		} );
 		this.labels = new Labels( root.getElementById( 'labels' ) );
+		this.clock = new ServerClock();
 		this.plots = new JointPlots( root.getElementById( 'plots' ) );
 		this.sim = new SimPanel( root, this.stage );
 		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), this.stage.settings.pixelRatio );

@@ -34,7 +34,7 @@ class Labels {
 			tag.append( text, note );
 			tag.style.color = `#${view.color.getHexString()}`;
 			this.container.append( tag );
-			this._tags.set( name, { tag, note } );
+			this._tags.set( name, { tag, note, x: null, y: null } );
 
 		}
 
@@ -55,27 +55,34 @@ class Labels {
 
 		const width = this.container.clientWidth;
 		const height = this.container.clientHeight;
-		for ( const [ name, { tag, note } ] of this._tags ) {
+		for ( const [ name, entry ] of this._tags ) {
 
+			const { tag, note } = entry;
 			const view = views.get( name );
 			const text = view ? view.note : null;
 			if ( note.textContent !== ( text ?? '' ) ) note.textContent = text ?? '';
-			note.hidden = ! text;
+			if ( note.hidden !== ! text ) note.hidden = ! text;
 			if ( ! view || ! view.anchor || ! view.group.visible ) {
 
-				tag.hidden = true;
+				if ( ! tag.hidden ) tag.hidden = true;
 				continue;
 
 			}
 			_ndc.copy( view.anchor ).project( camera );
 			const onScreen = _ndc.z < 1 && Math.abs( _ndc.x ) < 1.1 && Math.abs( _ndc.y ) < 1.1;
-			tag.hidden = ! onScreen;
+			if ( tag.hidden === onScreen ) tag.hidden = ! onScreen;
 			if ( onScreen ) {
 
-				const x = ( _ndc.x + 1 ) / 2 * width;
-				const y = ( 1 - _ndc.y ) / 2 * height;
-				tag.style.left = `${x.toFixed( 1 )}px`;
-				tag.style.top = `${y.toFixed( 1 )}px`;
+				// Style writes cost layout work every frame: only when the tag moved a pixel.
+				const x = Math.round( ( _ndc.x + 1 ) / 2 * width );
+				const y = Math.round( ( 1 - _ndc.y ) / 2 * height );
+				if ( x !== entry.x || y !== entry.y ) {
+
+					entry.x = x;
+					entry.y = y;
+					tag.style.transform = `translate(${x}px, ${y}px) translate(-50%, -100%)`;
+
+				}
 
 			}
 

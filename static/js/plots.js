@@ -10,7 +10,11 @@ const PLOT_HEIGHT = 50;
 
 /**
  * The last WINDOW_S seconds of one robot's joints, in a ring buffer: a fixed
- * amount of memory however long the page runs. Values in display units (deg, mm).
+ * amount of memory however long the page runs. Times are the samples' own
+ * (t_source, ms on the data layer's clock), so frames a busy page received in
+ * one burst still sit where they were sampled; "now" is the newest sample's
+ * time plus how long ago it arrived, so a device clock that is off does not
+ * shift the window. Values in display units (deg, mm).
  */
 class JointHistory {
 
@@ -18,15 +22,17 @@ class JointHistory {
 
 		this.joints = joints;
 		this.scales = joints.map( displayScale );
-		this.times = new Float64Array( CAPACITY ); // ms, page clock
+		this.times = new Float64Array( CAPACITY ); // ms, the samples' clock (t_source)
+		this.arrivalMs = 0; // page clock, when the newest sample arrived
 		this.values = new Float64Array( CAPACITY * joints.length );
 		this.count = 0; // samples written so far (monotonic)
 
 	}
 
-	/** Record joint values (SI, hello order) seen at `timeMs`. */
-	add( values, timeMs ) {
+	/** Record joint values (SI, hello order) sampled at `timeMs` (t_source, ms) arriving at `arrivalMs`. */
+	add( values, timeMs, arrivalMs ) {
 
+		this.arrivalMs = arrivalMs;
 		if ( this.count > 0 && timeMs - this.times[ ( this.count - 1 ) % CAPACITY ] < MIN_SPACING_MS ) return;
 		const slot = this.count % CAPACITY;
 		this.times[ slot ] = timeMs;
@@ -155,10 +161,13 @@ class JointPlots {
 	}
 
 	/** Refill every chart from the history and redraw (20 times a second while shown). */
-	redraw( nowMs = performance.timeOrigin + performance.now() ) {
+	redraw() {
 
 		const history = this.history;
 		if ( ! history || this.container.offsetParent === null ) return; // collapsed: skip the work
+		if ( history.count === 0 ) return;
+		const newest = history.times[ ( history.count - 1 ) % CAPACITY ];
+		const nowMs = newest + ( performance.timeOrigin + performance.now() - history.arrivalMs );
 		const n = history.joints.length;
 		const count = Math.min( history.count, CAPACITY );
 		const oldest = nowMs - WINDOW_S * 1000;

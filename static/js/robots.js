@@ -107,7 +107,9 @@ class Robots {
 
 		}
 		view.framesReceived ++;
-		if ( frame.joints.length ) this.histories.get( frame.robot ).add( frame.joints, arrivalMs );
+		// Plotted against the sample's own time: frames a busy page got in one burst
+		// still sit where they were sampled.
+		if ( frame.joints.length ) this.histories.get( frame.robot ).add( frame.joints, frame.t_source * 1000, arrivalMs );
 		this._pending.set( frame.robot, frame );
 
 	}

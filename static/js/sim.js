@@ -1,7 +1,7 @@
 import * as THREE from 'three';
 import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { forward, inverse, move, reason } from './api.js';
-import { button, element, setText } from './dom.js';
+import { element, setText } from './dom.js';
 import { quaternionFromRpy, rpyFromQuaternion } from './rpy.js';
 import { RAD_TO_DEG, displayScale, formatJoint } from './units.js';
 
