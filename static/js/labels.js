@@ -25,6 +25,7 @@ class Labels {
 
 			const tag = document.createElement( 'div' );
 			tag.className = 'label';
+			tag.dataset.robot = name;
 			tag.hidden = true;
 			const text = document.createElement( 'span' );
 			text.textContent = name;
