@@ -108,14 +108,19 @@ def cube_fps(page: Page, url: str, antialias: bool, shadows: bool, seconds: floa
         page.unroute("**/bench/cube")
 
 
-def page_fps(page: Page, url: str, quality: str, seconds: float) -> tuple[float, dict[str, int]]:
-    """The page's frame rate at a pinned level, and what it drew per frame."""
+def page_fps(
+    page: Page, url: str, quality: str, seconds: float
+) -> tuple[float, float, dict[str, int]]:
+    """The page's frame rate at a pinned level, its plots' redraws/s, what it drew per frame."""
     open_page(page, f"{url}/?quality={quality}")
+    page.select_option("#selected-robot", "iiwa7")  # seven joint plots
     page.wait_for_timeout(WARM_UP_MS)
     assert page.evaluate("window.linkview.robotState('iiwa7').trailPoints") > 0, "trail is off"
+    redraws = page.evaluate("window.linkview.plots.redraws")
     fps = frames_per_second(page, seconds)
+    plots = (page.evaluate("window.linkview.plots.redraws") - redraws) / seconds
     info: dict[str, int] = page.evaluate("window.linkview.renderInfo")
-    return fps, info
+    return fps, plots, info
 
 
 def load() -> str:
@@ -139,7 +144,7 @@ def main() -> None:
         )
         page = browser.new_page(viewport=VIEWPORT)
         for index, (name, antialias, shadows) in enumerate(LEVELS):
-            fps, info = page_fps(page, url, str(index), args.seconds)
+            fps, plots, info = page_fps(page, url, str(index), args.seconds)
             cube = cube_fps(page, url, antialias, shadows, args.seconds)
             rows.append(
                 [
@@ -147,6 +152,7 @@ def main() -> None:
                     f"{fps:.1f}",
                     f"{cube:.1f}",
                     f"{fps / cube:.2f}",
+                    f"{plots:.1f}",
                     f"{info['calls']} / {info['triangles']}",
                 ]
             )
@@ -168,7 +174,8 @@ def main() -> None:
     body = (
         f"Headless Chromium (`{CHROMIUM}`, SwiftShader, no GPU) at "
         f"{VIEWPORT['width']}x{VIEWPORT['height']}, device pixel ratio 1, the demo cell with "
-        f"TCP trails on; {args.seconds:g} s of requestAnimationFrame counted after a "
+        f"TCP trails on, iiwa7's seven joint plots shown; {args.seconds:g} s of "
+        f"requestAnimationFrame counted after a "
         f"{WARM_UP_MS / 1000:g} s warm-up. Load average before: {load_before}; after: "
         f"{load_after}.\n\n{table}\n\n{auto}\n"
     )
