@@ -164,7 +164,14 @@ def main() -> None:
         browser.close()
     load_after = load()
     table = markdown_table(
-        ["quality level", "page frames/s", "bare cube frames/s", "page / cube", "draws / tris"],
+        [
+            "quality level",
+            "page frames/s",
+            "bare cube frames/s",
+            "page / cube",
+            "plot redraws/s",
+            "draws / triangles",
+        ],
         rows,
     )
     auto = (

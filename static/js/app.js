@@ -270,6 +270,7 @@ class App {
 			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${LEVELS[ this.quality.level ].name}`;
 
 		}
+		this.plots.tick( time );
 		this.stage.render();
 		this.labels.update( views, this.stage.camera );
 

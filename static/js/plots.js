@@ -2,9 +2,9 @@ import uPlot from 'uplot';
 import { displayScale, displayUnit } from './units.js';
 
 const WINDOW_S = 10;
-const CAPACITY = 1024; // samples per robot: 10 s at up to 100 samples/s
-const MIN_SPACING_MS = 9; // faster sources are thinned to fit the window
-const UPDATE_MS = 50; // 20 redraws a second
+const CAPACITY = 600; // samples per robot: 10 s at up to 55 samples/s
+const MIN_SPACING_MS = 18; // faster sources are thinned: a 300 px plot shows no more
+const MAX_GAP_MS = 50; // at least 20 redraws a second
 const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
 const PLOT_HEIGHT = 50;
 
@@ -92,8 +92,13 @@ function limitsPlugin( limits, colors ) {
 
 /**
  * One small uPlot chart per joint of the selected robot: the last 10 s, the
- * limits drawn, redrawn 20 times a second from the robot's JointHistory. The
- * charts' data arrays are allocated once and refilled in place.
+ * limits drawn, redrawn at least 20 times a second from the robot's
+ * JointHistory. The charts' data arrays are allocated once and refilled in place.
+ *
+ * Redraws are driven by the animation loop, not a timer: a page busy rendering
+ * runs timers late (15 a second where 25 were asked for), while the loop knows
+ * when the next frame comes and redraws whenever waiting for it would leave a
+ * gap over 50 ms.
  */
 class JointPlots {
 
@@ -103,8 +108,11 @@ class JointPlots {
 		this.history = null;
 		this.color = '#2f6fd6';
 		this._plots = []; // { plot, xs, ys }
-		this._timer = null;
+		this._last = - Infinity; // when the charts were last redrawn (animation clock, ms)
+		this._frameMs = 16.7; // the animation loop's frame interval, smoothed
+		this._tickAt = null;
 		this.redraws = 0; // for tests: the plots are live
+		this.redrawMs = 0; // main-thread time of one redraw of every chart, smoothed
 
 	}
 
@@ -156,7 +164,17 @@ class JointPlots {
 			this._plots.push( { plot, xs, ys } );
 
 		} );
-		this._timer = setInterval( () => this.redraw(), UPDATE_MS );
+
+	}
+
+	/** Call once per animation frame (`time`: the loop's clock, ms); redraws when due. */
+	tick( time ) {
+
+		if ( this._tickAt !== null ) this._frameMs += 0.1 * ( Math.min( time - this._tickAt, 200 ) - this._frameMs );
+		this._tickAt = time;
+		if ( time - this._last + this._frameMs <= MAX_GAP_MS ) return;
+		this._last = time;
+		this.redraw();
 
 	}
 
@@ -164,8 +182,10 @@ class JointPlots {
 	redraw() {
 
 		const history = this.history;
-		if ( ! history || this.container.offsetParent === null ) return; // collapsed: skip the work
+		// Collapsed: skip the work (a class test, not offsetParent, which would force a layout).
+		if ( ! history || this.container.closest( '.collapsed' ) !== null ) return;
 		if ( history.count === 0 ) return;
+		const started = performance.now();
 		const newest = history.times[ ( history.count - 1 ) % CAPACITY ];
 		const nowMs = newest + ( performance.timeOrigin + performance.now() - history.arrivalMs );
 		const n = history.joints.length;
@@ -196,6 +216,7 @@ class JointPlots {
 
 		}
 		this.redraws ++;
+		this.redrawMs += 0.1 * ( performance.now() - started - this.redrawMs );
 
 	}
 
@@ -209,8 +230,6 @@ class JointPlots {
 
 	_destroy() {
 
-		clearInterval( this._timer );
-		this._timer = null;
 		for ( const { plot } of this._plots ) plot.destroy();
 		this._plots = [];
 		this.container.replaceChildren();
