@@ -1,43 +1,127 @@
+import { ServerClock, nowMs } from './clock.js';
 import { Hud } from './hud.js';
 import { Labels } from './labels.js';
+import { Panels } from './panels.js';
+import { JointPlots } from './plots.js';
+import { LEVELS, Quality } from './quality.js';
 import { Robots } from './robots.js';
 import { Stage } from './scene.js';
+import { SimPanel } from './sim.js';
 import { Socket } from './socket.js';
 
-const PROTOCOL = 1; // server/protocol.py PROTOCOL_VERSION
+const PROTOCOL = 2; // server/protocol.py PROTOCOLS['linkview.2']
 const HUD_INTERVAL_MS = 100;
-const FRAME_ANYWAY_MS = 3000; // aim the camera even if a robot never gets a good pose
+const FRAME_ANYWAY_MS = 3000; // aim the camera even if a robot never gets a pose
+const LATENCY_SMOOTHING = 0.1; // weight of the newest sample in the latency average
 
 /**
- * The viewer: wires the socket to the robots and the HUD, and runs the render
- * loop, which applies at most one (the newest) frame per robot per animation frame.
+ * The viewer: wires the socket to the robots, the panels and the scene, and runs
+ * the render loop, which applies at most one (the newest) frame per robot per
+ * animation frame.
  */
 class App {
 
 	constructor( root = document ) {
 
+		this.root = root;
 		this.stage = new Stage( root.getElementById( 'viewport' ) );
 		this.robots = new Robots( this.stage.world );
-		this.hud = new Hud( root );
+		this.hud = new Hud( root, {
+			onShow: ( name, on ) => this.setShown( name, on ),
+			onTrail: ( name, on ) => this.views.get( name )?.setTrail( on ),
+			onFocus: ( name ) => this.focus( name ),
+		} );
 		this.labels = new Labels( root.getElementById( 'labels' ) );
+		this.clock = new ServerClock();
+		this.plots = new JointPlots( root.getElementById( 'plots' ) );
+		this.sim = new SimPanel( root, this.stage );
+		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), this.stage.settings.pixelRatio );
+		this.panels = new Panels( root, ( left, right ) => {
+
+			this.stage.setInsets( left, right );
+			this.plots.resize();
+
+		} );
 		this.socket = null;
 		this.protocolError = null;
+		this.selected = null; // robot name shown in the plots and the simulation panel
+		this.trailSeconds = 5;
 		this._hudAt = - Infinity;
 		this._dressed = false; // HUD and labels use the colours picked from the meshes
 		this._framed = false;
-		this._loadedAt = null;
+		this._helloAt = null;
 		this._animate = ( time ) => this.animate( time );
-		this._receive = ( message ) => this.receive( message );
+		this._wire();
+
+	}
+
+	get views() {
+
+		return this.robots.views;
+
+	}
+
+	_wire() {
+
+		const byId = ( id ) => this.root.getElementById( id );
+		byId( 'fit-all' ).addEventListener( 'click', () => this.fitAll() );
+		for ( const el of this.root.querySelectorAll( '[data-view]' ) ) {
+
+			el.addEventListener( 'click', () => this.fitAll( el.dataset.view ) );
+
+		}
+		const trailOn = byId( 'trail-on' );
+		trailOn.addEventListener( 'change', () => {
+
+			for ( const view of this.views.values() ) view.setTrail( trailOn.checked );
+			for ( const input of this.root.querySelectorAll( '#robots input[aria-label^="draw the TCP trail"]' ) ) input.checked = trailOn.checked;
+
+		} );
+		const seconds = byId( 'trail-seconds' );
+		seconds.addEventListener( 'change', () => {
+
+			const value = Number( seconds.value );
+			if ( Number.isFinite( value ) && value > 0 ) this.trailSeconds = Math.min( value, 60 );
+
+		} );
+		const quality = byId( 'quality' );
+		for ( const [ i, level ] of LEVELS.entries() ) {
+
+			const option = document.createElement( 'option' );
+			option.value = String( i );
+			option.textContent = level.name;
+			quality.append( option );
+
+		}
+		quality.addEventListener( 'change', () => this.quality.setMode( quality.value === 'auto' ? 'auto' : Number( quality.value ) ) );
+		// ?quality=N pins a level from the start (a bookmark for a slow machine; tests, benchmarks).
+		const pinned = new URLSearchParams( window.location.search ).get( 'quality' );
+		if ( pinned !== null && quality.querySelector( `option[value="${CSS.escape( pinned )}"]` ) ) {
+
+			quality.value = pinned;
+			this.quality.setMode( pinned === 'auto' ? 'auto' : Number( pinned ) );
+
+		}
+		byId( 'selected-robot' ).addEventListener( 'change', ( event ) => this.select( event.target.value ) );
+		this._onKey = ( event ) => {
+
+			if ( event.key !== 'Home' || event.target.closest?.( 'input, select, textarea' ) ) return;
+			event.preventDefault();
+			this.fitAll( 'iso' );
+
+		};
+		window.addEventListener( 'keydown', this._onKey );
 
 	}
 
 	start() {
 
 		this.socket = new Socket( {
-			onMessage: this._receive,
-			onState: ( state, retryAt ) => this.hud.setConnection( state, retryAt ),
+			onMessage: ( message, arrival ) => this.receive( message, arrival ),
+			onFrames: ( frames, arrival ) => this.receiveFrames( frames, arrival ),
+			onState: ( state ) => this.hud.setConnection( state ),
 		} );
-		this.stage.renderer.setAnimationLoop( this._animate );
+		this.stage.setAnimationLoop( this._animate );
 
 	}
 
@@ -47,15 +131,38 @@ class App {
 
 	}
 
-	receive( message ) {
+	receive( message, arrival = nowMs() ) {
 
 		switch ( message.type ) {
 
 			case 'hello': this._onHello( message ); break;
-			case 'frame': this.robots.queue( message ); break;
+			case 'frame': this.clock.observe( message.t_sent, arrival ); this.robots.queue( message, arrival ); break;
 			case 'status': this.hud.setStatus( message ); break;
 			case 'cell': this.hud.setCell( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
+
+		}
+
+	}
+
+	/** A protocol-2 frames message: every robot of one source at one sample. */
+	receiveFrames( frames, arrival ) {
+
+		this.clock.observe( frames.t_sent, arrival );
+		for ( const entry of frames.robots ) {
+
+			const view = this.robots.byIndex[ entry.robot_index ];
+			if ( view === undefined ) {
+
+				this.robots.unknownFrames ++;
+				continue;
+
+			}
+			// The same shape as a protocol-1 `frame` (links flat: 7 numbers per link).
+			this.robots.queue( {
+				type: 'frame', robot: view.name, seq: frames.seq, t_source: frames.t_source, t_sent: frames.t_sent,
+				joints: entry.joints, links: entry.links, tcp: entry.tcp, ok: entry.ok, error: entry.error,
+			}, arrival );
 
 		}
 
@@ -67,53 +174,135 @@ class App {
 			? null
 			: `The server speaks protocol ${hello.protocol}; this page expects ${PROTOCOL}. Reload the page.`;
 		const rebuilt = this.robots.setHello( hello );
-		this.hud.setHello( hello, this.robots.views );
-		if ( rebuilt ) {
+		this.hud.setHello( hello, this.views );
+		if ( ! rebuilt ) return;
+		this.labels.rebuild( this.views );
+		this._dressed = false;
+		this._framed = false;
+		this._helloAt = performance.now();
+		const select = this.root.getElementById( 'selected-robot' );
+		select.replaceChildren( ...hello.robots.map( ( robot ) => new Option( robot.name, robot.name ) ) );
+		const keep = this.views.has( this.selected ) ? this.selected : hello.robots[ 0 ]?.name ?? null;
+		this.select( keep );
 
-			this.labels.rebuild( this.robots.views );
-			this._dressed = false;
-			this._framed = false;
-			this._loadedAt = null;
+	}
 
-		}
+	/** Show `name`'s joints in the plots and its simulation panel. */
+	select( name ) {
+
+		this.selected = name;
+		const select = this.root.getElementById( 'selected-robot' );
+		if ( name !== null ) select.value = name;
+		const view = this.views.get( name ) ?? null;
+		this.plots.show( view ? this.robots.histories.get( name ) : null, view ? `#${view.color.getHexString()}` : '' );
+		this.sim.setRobot( view );
+
+	}
+
+	setShown( name, on ) {
+
+		const view = this.views.get( name );
+		if ( ! view ) return;
+		view.setShown( on );
+		if ( ! on && this.sim.view === view ) this.sim.setRobot( view ); // its ghosts go too
+
+	}
+
+	_visibleViews() {
+
+		return [ ...this.views.values() ].filter( ( view ) => view.group.visible );
+
+	}
+
+	/** Frame every shown robot, from a preset direction or the current one. */
+	fitAll( preset = null ) {
+
+		return this.stage.frameAll( this._visibleViews(), preset );
+
+	}
+
+	focus( name ) {
+
+		const view = this.views.get( name );
+		if ( view ) this.stage.frameAll( [ view ] );
 
 	}
 
 	animate( time ) {
 
-		this.robots.applyPending();
-		const views = this.robots.views;
+		this.quality.tick( time );
+		const now = nowMs();
+		for ( const frame of this.robots.applyPending( now ) ) {
 
+			const view = this.views.get( frame.robot );
+			const age = this.clock.ageMs( frame.t_source, now );
+			if ( age !== null ) view.latencyMs = view.latencyMs === null ? age : view.latencyMs + LATENCY_SMOOTHING * ( age - view.latencyMs );
+
+		}
+		const views = this.views;
 		if ( this.robots.meshesLoaded && ! this._dressed ) {
 
 			this._dressed = true;
-			this._loadedAt = time;
 			this.hud.refreshColors( views );
 			this.labels.refreshColors( views );
+			if ( this.selected ) this.select( this.selected ); // plot colours
 
 		}
-		if ( this._dressed && ! this._framed && ( this.robots.allPosed() || time - this._loadedAt > FRAME_ANYWAY_MS ) ) {
+		if ( this._dressed && ! this._framed ) {
 
-			this._framed = true;
-			this.stage.frameWorld();
+			const posed = [ ...views.values() ].every( ( view ) => view.posed );
+			if ( posed || time - this._helloAt > FRAME_ANYWAY_MS ) this._framed = this.fitAll( 'iso' ) || ! posed;
 
 		}
-		if ( this._framed ) for ( const view of views.values() ) view.updateAnchor();
+		for ( const view of views.values() ) {
+
+			view.trail.seconds = this.trailSeconds;
+			if ( view.trailOn ) view.trail.update( now );
+			if ( this._framed ) view.updateAnchor();
+
+		}
 		if ( time - this._hudAt >= HUD_INTERVAL_MS ) {
 
 			this._hudAt = time;
-			this.hud.update( views, this.protocolError || this.robots.loadError );
+			this._updateStates();
+			this.hud.update( views, this.clock, this.protocolError || this.robots.loadError );
+			this.sim.update();
+			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${LEVELS[ this.quality.level ].name}`;
 
 		}
+		this.plots.tick( time );
 		this.stage.render();
 		this.labels.update( views, this.stage.camera );
+
+	}
+
+	// Grey and a note for every robot that is not live: no frame yet, in error, or its source is down.
+	_updateStates() {
+
+		const simple = this.stage.settings.simpleMaterials;
+		for ( const view of this.views.values() ) {
+
+			view.setSimple( simple );
+			const live = this.hud.sourceLive( view.info.source );
+			let note = null;
+			if ( view.error ) note = view.error;
+			else if ( view.goodFrame === null ) note = view.zeroPosed ? 'no frame yet (zero pose)' : 'no frame yet';
+			else if ( ! live ) note = `no live data from ${view.info.source}`;
+			view.note = note;
+			view.setGreyed( note !== null );
+
+		}
 
 	}
 
 	dispose() {
 
 		if ( this.socket ) this.socket.dispose();
-		this.stage.renderer.setAnimationLoop( null );
+		window.removeEventListener( 'keydown', this._onKey );
+		this.stage.setAnimationLoop( null );
+		this.sim.dispose();
+		this.plots.dispose();
+		this.panels.dispose();
 		this.labels.dispose();
 		this.robots.dispose();
 		this.stage.dispose();

@@ -1,92 +1,137 @@
-const RAD_TO_DEG = 180 / Math.PI;
+import { Banner } from './banner.js';
+import { button, checkbox, element, setText } from './dom.js';
+import { NEAR_LIMIT } from './plots.js';
+import { rpyFromQuaternion } from './rpy.js';
+import { RAD_TO_DEG, displayScale, fixed, formatJoint } from './units.js';
 
-/** A joint value for people: degrees for rotary joints, millimetres for linear ones. */
-function formatJoint( value, joint ) {
+const SERVER_TEXT = {
+	connecting: 'server: connecting',
+	connected: 'server: connected',
+	lost: 'server: lost, reconnecting',
+};
 
-	if ( ! Number.isFinite( value ) ) return '—';
-	return joint.unit === 'm' ? `${( value * 1000 ).toFixed( 1 )} mm` : `${( value * RAD_TO_DEG ).toFixed( 1 )}°`;
+/** Where a joint value sits between its limits (0..1), and whether it is within 5 % of one. */
+function limitShare( value, joint ) {
 
-}
-
-function describe( frame, rate ) {
-
-	return `seq ${frame.seq} · ${rate.toFixed( 0 )} frames/s`;
-
-}
-
-function element( tag, className, text ) {
-
-	const el = document.createElement( tag );
-	if ( className ) el.className = className;
-	if ( text !== undefined ) el.textContent = text;
-	return el;
+	if ( ! joint.limits || ! Number.isFinite( value ) ) return null;
+	const [ lo, hi ] = joint.limits;
+	const share = ( value - lo ) / ( hi - lo );
+	return { share: Math.min( Math.max( share, 0 ), 1 ), near: share < NEAR_LIMIT || share > 1 - NEAR_LIMIT };
 
 }
 
 /**
- * The overlay: connection state, one card per robot (joint values, frame rate,
- * the current error), the data sources from `status`, and an error banner when
- * the socket is down, a source is in error or a robot cannot be posed.
- * Text from the server is only ever set as textContent.
+ * The left panel: the server and controller pills, one card per robot (show,
+ * trail, focus; TCP position in mm and roll/pitch/yaw in degrees; joint values
+ * on bars between their limits; frames/s and latency), the data sources from
+ * `status`, and the banner.
  */
 class Hud {
 
-	constructor( root = document ) {
+	constructor( root, handlers ) {
 
-		this.connectionEl = root.getElementById( 'connection' );
+		this.handlers = handlers; // { onShow(name, on), onTrail(name, on), onFocus(name) }
+		this.serverPill = root.getElementById( 'pill-server' );
+		this.controllersEl = root.getElementById( 'pill-controllers' );
 		this.robotsEl = root.getElementById( 'robots' );
 		this.sourcesEl = root.getElementById( 'sources' );
 		this.sessionEl = root.getElementById( 'session' );
-		this.bannerEl = root.getElementById( 'banner' );
-		this.connection = 'connecting';
-		this.retryAt = 0;
+		this.banner = new Banner( root.getElementById( 'banner' ) );
+		this.server = 'connecting';
 		this.sources = new Map(); // source name -> its newest SourceStatus (one per message)
-		this.problem = null;
 		this.cellError = null; // why the cell file on disk was not reloaded
-		this._cards = new Map(); // robot name -> { joints: [valueEl], state, error, counted, time }
+		this._cards = new Map(); // robot name -> card elements and counters
 
 	}
 
-	setConnection( state, retryAt = 0 ) {
+	setConnection( state ) {
 
-		this.connection = state;
-		this.retryAt = retryAt;
-		this.connectionEl.textContent = state;
-		this.connectionEl.className = `pill pill-${state}`;
+		this.server = state;
+		setText( this.serverPill, SERVER_TEXT[ state ] );
+		this.serverPill.className = `pill pill-${state}`;
 		// What the server last said about its sources is stale while we cannot hear it.
 		this.sourcesEl.classList.toggle( 'stale', state !== 'connected' );
+		this._renderPills();
 
 	}
 
-	/** One card per robot of `hello`; `views` supplies each robot's colour. */
+	/** One card per robot of `hello`; `views` supplies each robot's colour and choices. */
 	setHello( hello, views ) {
 
 		this.sessionEl.textContent = `session ${hello.session} · protocol ${hello.protocol}`;
 		this.robotsEl.replaceChildren();
-		this._cards.clear();
+		const old = this._cards;
+		this._cards = new Map();
 		for ( const robot of hello.robots ) {
 
-			const card = element( 'div', 'robot' );
+			const view = views.get( robot.name );
+			const card = element( 'article', 'robot' );
+			card.dataset.robot = robot.name;
 			const title = element( 'div', 'robot-title' );
 			const swatch = element( 'span', 'swatch' );
+			const show = checkbox( 'show', view.shown, `show ${robot.name}` );
+			show.input.addEventListener( 'change', () => this.handlers.onShow( robot.name, show.input.checked ) );
+			const trail = checkbox( 'trail', view.trailOn, `draw the TCP trail of ${robot.name}` );
+			trail.input.addEventListener( 'change', () => this.handlers.onTrail( robot.name, trail.input.checked ) );
+			const focus = button( 'Focus', `focus the camera on ${robot.name}`, 'btn btn-small' );
+			focus.addEventListener( 'click', () => this.handlers.onFocus( robot.name ) );
 			title.append( swatch, element( 'span', 'name', robot.name ), element( 'span', 'kind', robot.kinematics ) );
+			const controls = element( 'div', 'robot-controls' );
+			controls.append( show.label, trail.label, focus );
+
+			const tcp = element( 'div', 'tcp' );
+			tcp.setAttribute( 'aria-label', `TCP of ${robot.name}` );
+			const fields = {};
+			for ( const [ key, unit ] of [ [ 'x', 'mm' ], [ 'y', 'mm' ], [ 'z', 'mm' ], [ 'roll', '°' ], [ 'pitch', '°' ], [ 'yaw', '°' ] ] ) {
+
+				const cell = element( 'span', 'tcp-field' );
+				const value = element( 'span', 'value', '—' );
+				value.dataset.tcp = key;
+				cell.append( element( 'span', 'name', key ), value, element( 'span', 'unit', unit ) );
+				tcp.append( cell );
+				fields[ key ] = value;
+
+			}
+
 			const joints = element( 'div', 'joints' );
-			const values = robot.joints.map( ( joint ) => {
+			const rows = robot.joints.map( ( joint ) => {
 
 				const row = element( 'div', 'joint' );
 				const value = element( 'span', 'value', '—' );
-				row.append( element( 'span', 'name', joint.name ), value );
+				const bar = element( 'span', 'bar' );
+				const mark = element( 'span', 'mark' );
+				bar.append( mark );
+				if ( joint.limits ) {
+
+					const scale = displayScale( joint );
+					bar.setAttribute( 'role', 'meter' );
+					bar.setAttribute( 'aria-valuemin', String( joint.limits[ 0 ] * scale ) );
+					bar.setAttribute( 'aria-valuemax', String( joint.limits[ 1 ] * scale ) );
+					bar.setAttribute( 'aria-label', `${joint.name} between its limits` );
+					bar.title = `limits ${formatJoint( joint.limits[ 0 ], joint )} … ${formatJoint( joint.limits[ 1 ], joint )}`;
+
+				} else {
+
+					bar.classList.add( 'unlimited' );
+					bar.title = 'no limits';
+
+				}
+				row.append( element( 'span', 'name', joint.name ), bar, value );
 				joints.append( row );
-				return value;
+				return { value, bar, mark };
 
 			} );
 			const state = element( 'div', 'robot-state', 'waiting for the first frame' );
 			const error = element( 'div', 'robot-error' );
 			error.hidden = true;
-			card.append( title, joints, state, error );
+			card.append( title, controls, tcp, joints, state, error );
 			this.robotsEl.append( card );
-			const counted = views.get( robot.name )?.framesReceived ?? 0; // views survive a reconnect
-			this._cards.set( robot.name, { swatch, values, state, error, counted, time: performance.now(), rate: 0 } );
+			const before = old.get( robot.name );
+			this._cards.set( robot.name, {
+				card, swatch, show: show.input, trail: trail.input, fields, rows, state, error,
+				counted: view.framesReceived, since: undefined, time: - Infinity,
+				rate: before ? before.rate : 0, shown: null,
+			} );
 
 		}
 		this.refreshColors( views );
@@ -121,93 +166,150 @@ class Hud {
 			const age = source.last_sample_age_s === null ? '' : `${source.last_sample_age_s.toFixed( 2 )} s`;
 			item.append(
 				element( 'span', `dot dot-${source.state}` ),
-				element( 'span', 'name', source.name ),
+				element( 'span', 'name', source.mock ? `${source.name} (mock)` : source.name ),
 				element( 'span', 'muted', source.state ),
 				element( 'span', 'age', age )
 			);
 			if ( source.error ) item.append( element( 'span', 'error', source.error ) );
+			if ( source.warning ) item.append( element( 'span', 'warning', source.warning ) );
 			this.sourcesEl.append( item );
 
 		}
+		this._renderPills();
 
 	}
 
-	/** Refresh the robot cards and the banner from the views (call a few times a second). */
-	update( views, loadError ) {
+	// One "controller" pill per data source, with its own state; unknown while the server is away.
+	_renderPills() {
 
-		const now = performance.now();
+		const many = this.sources.size > 1;
+		const pills = [];
+		for ( const source of this.sources.values() ) {
+
+			const state = this.server === 'connected' ? source.state : 'unknown';
+			const pill = element( 'span', `pill pill-${state}`, `controller${many ? ` ${source.name}` : ''}: ${state}` );
+			pill.title = [ source.url, source.error, source.warning ].filter( Boolean ).join( ' — ' );
+			pill.dataset.source = source.name;
+			pills.push( pill );
+
+		}
+		if ( pills.length === 0 ) pills.push( element( 'span', 'pill pill-unknown', 'controller: unknown' ) );
+		this.controllersEl.replaceChildren( ...pills );
+
+	}
+
+	/** Whether robots of `sourceName` get live data now. */
+	sourceLive( sourceName ) {
+
+		const source = this.sources.get( sourceName );
+		return this.server === 'connected' && source !== undefined && source.state === 'connected';
+
+	}
+
+	/** Refresh the cards and the banner (a few times a second). */
+	update( views, clock, loadError, now = performance.now() ) {
+
 		let robotProblem = null;
 		for ( const [ name, card ] of this._cards ) {
 
 			const view = views.get( name );
 			if ( ! view ) continue;
-			const robot = view.info;
-			const frame = view.goodFrame;
-			if ( frame ) {
-
-				robot.joints.forEach( ( joint, i ) => {
-
-					card.values[ i ].textContent = formatJoint( frame.joints[ i ], joint );
-
-				} );
-
-			}
-			if ( now - card.time >= 1000 ) {
-
-				card.rate = ( view.framesReceived - card.counted ) * 1000 / ( now - card.time );
-				card.counted = view.framesReceived;
-				card.time = now;
-
-			}
-			if ( view.lastFrame ) card.state.textContent = describe( view.lastFrame, card.rate );
-			card.error.hidden = view.error === null;
-			card.error.textContent = view.error ?? '';
-			if ( view.error && ! robotProblem ) robotProblem = `${name}: ${view.error}`;
+			this._updateCard( card, view, clock, now );
+			if ( view.error && ! robotProblem ) robotProblem = name;
 
 		}
-		this._setBanner( loadError, robotProblem );
+		this.banner.update( this._problem( loadError, robotProblem ), now );
 
 	}
 
-	_setBanner( loadError, robotProblem ) {
+	_updateCard( card, view, clock, now ) {
 
-		let text = null;
-		let warn = false;
-		const source = [ ...this.sources.values() ].find( ( candidate ) => candidate.state === 'error' );
-		if ( this.connection !== 'connected' ) {
+		const robot = view.info;
+		const frame = view.goodFrame;
+		if ( frame && frame !== card.frame ) {
 
-			const seconds = Math.max( 0, Math.ceil( ( this.retryAt - performance.now() ) / 1000 ) );
-			text = this.connection === 'connecting'
-				? 'Connecting to the linkview server…'
-				: `Connection to the server lost — ${seconds > 0 ? `reconnecting in ${seconds} s` : 'reconnecting…'}`;
-			warn = this.connection === 'connecting';
+			card.frame = frame;
+			robot.joints.forEach( ( joint, i ) => {
 
-		} else if ( loadError ) {
+				const value = frame.joints[ i ];
+				const row = card.rows[ i ];
+				setText( row.value, formatJoint( value, joint ) );
+				const where = limitShare( value, joint );
+				if ( where ) {
 
-			text = loadError;
+					row.mark.style.left = `${( where.share * 100 ).toFixed( 1 )}%`;
+					row.bar.classList.toggle( 'near', where.near );
+					row.bar.setAttribute( 'aria-valuenow', ( value * displayScale( joint ) ).toFixed( 1 ) );
 
-		} else if ( this.cellError ) {
+				}
 
-			text = `The cell file was not reloaded: ${this.cellError}`;
+			} );
+			const tcp = frame.tcp;
+			if ( tcp.length === 7 ) {
 
-		} else if ( source ) {
+				const rpy = rpyFromQuaternion( tcp[ 3 ], tcp[ 4 ], tcp[ 5 ], tcp[ 6 ] );
+				const text = {
+					x: fixed( tcp[ 0 ] * 1000 ), y: fixed( tcp[ 1 ] * 1000 ), z: fixed( tcp[ 2 ] * 1000 ),
+					roll: fixed( rpy[ 0 ] * RAD_TO_DEG ), pitch: fixed( rpy[ 1 ] * RAD_TO_DEG ), yaw: fixed( rpy[ 2 ] * RAD_TO_DEG ),
+				};
+				for ( const key in text ) setText( card.fields[ key ], text[ key ] );
+				card.shown = { joints: Array.from( frame.joints ), tcp: text };
 
-			text = `Data source ${source.name} is in error: ${source.error || 'no detail'}`;
-
-		} else if ( robotProblem ) {
-
-			text = robotProblem;
-			warn = true;
-
-		}
-		if ( text !== this.problem ) {
-
-			this.problem = text;
-			this.bannerEl.hidden = text === null;
-			this.bannerEl.textContent = text ?? '';
+			}
 
 		}
-		this.bannerEl.classList.toggle( 'warn', warn );
+		const last = view.lastFrame;
+		// Frames per second of sample time (t_source), not of arrival: after a stall the
+		// browser hands over what it buffered in one burst, which is no faster a stream.
+		if ( last && now - card.time >= 1000 ) {
+
+			const span = card.since === undefined ? 0 : last.t_source - card.since;
+			if ( span > 0 ) card.rate = ( view.framesReceived - card.counted ) / span;
+			card.counted = view.framesReceived;
+			card.since = last.t_source;
+			card.time = now;
+
+		}
+		if ( last ) {
+
+			const latency = view.latencyMs === null ? '—' : `${view.latencyMs.toFixed( 0 )} ms`;
+			setText( card.state, `seq ${last.seq} · ${card.rate.toFixed( 0 )} frames/s · latency ${latency}` );
+
+		} else if ( view.zeroPosed ) {
+
+			setText( card.state, 'no frame yet: shown at its zero pose' );
+
+		}
+		card.card.classList.toggle( 'greyed', view.greyed );
+		card.error.hidden = view.error === null;
+		setText( card.error, view.error ?? '' );
+
+	}
+
+	// The one most important thing, worded so it stays the same while it lasts.
+	_problem( loadError, robotProblem ) {
+
+		if ( this.server === 'connecting' ) return { text: 'Connecting to the linkview server…', warn: true, urgent: true };
+		if ( this.server === 'lost' ) return { text: 'Connection to the linkview server lost — reconnecting…', urgent: true };
+		if ( loadError ) return { text: loadError };
+		if ( this.cellError ) return { text: `The cell file was not reloaded: ${this.cellError}` };
+		for ( const source of this.sources.values() ) {
+
+			if ( source.state === 'error' ) return { text: `Controller ${source.name}: ${source.error || 'in error'}` };
+			if ( source.state === 'stale' ) return { text: `Controller ${source.name} sends no new data — showing the last good pose`, warn: true };
+			if ( source.state === 'connecting' ) return { text: `Connecting to controller ${source.name}…`, warn: true };
+
+		}
+		if ( robotProblem ) return { text: `${robotProblem} cannot be posed: see the error beside it`, warn: true };
+		return null;
+
+	}
+
+	/** What a robot's card shows now (tests compare it with /fk). */
+	shown( name ) {
+
+		const card = this._cards.get( name );
+		return card ? card.shown : null;
 
 	}
 

@@ -2,7 +2,11 @@ import * as THREE from 'three';
 
 const _ndc = new THREE.Vector3();
 
-/** Robot name tags that follow the robots on screen (HTML, so they stay crisp). */
+/**
+ * Robot name tags that follow the robots on screen (HTML, so they stay crisp),
+ * with a robot's note beside its name while it is not live (its error, or why
+ * it is grey).
+ */
 class Labels {
 
 	constructor( container ) {
@@ -21,13 +25,17 @@ class Labels {
 
 			const tag = document.createElement( 'div' );
 			tag.className = 'label';
+			tag.dataset.robot = name;
 			tag.hidden = true;
 			const text = document.createElement( 'span' );
 			text.textContent = name;
-			tag.append( text );
+			const note = document.createElement( 'span' );
+			note.className = 'note';
+			note.hidden = true;
+			tag.append( text, note );
 			tag.style.color = `#${view.color.getHexString()}`;
 			this.container.append( tag );
-			this._tags.set( name, tag );
+			this._tags.set( name, { tag, note, x: null, y: null } );
 
 		}
 
@@ -35,7 +43,7 @@ class Labels {
 
 	refreshColors( views ) {
 
-		for ( const [ name, tag ] of this._tags ) {
+		for ( const [ name, { tag } ] of this._tags ) {
 
 			const view = views.get( name );
 			if ( view ) tag.style.color = `#${view.color.getHexString()}`;
@@ -48,24 +56,34 @@ class Labels {
 
 		const width = this.container.clientWidth;
 		const height = this.container.clientHeight;
-		for ( const [ name, tag ] of this._tags ) {
+		for ( const [ name, entry ] of this._tags ) {
 
+			const { tag, note } = entry;
 			const view = views.get( name );
+			const text = view ? view.note : null;
+			if ( note.textContent !== ( text ?? '' ) ) note.textContent = text ?? '';
+			if ( note.hidden !== ! text ) note.hidden = ! text;
 			if ( ! view || ! view.anchor || ! view.group.visible ) {
 
-				tag.hidden = true;
+				if ( ! tag.hidden ) tag.hidden = true;
 				continue;
 
 			}
 			_ndc.copy( view.anchor ).project( camera );
 			const onScreen = _ndc.z < 1 && Math.abs( _ndc.x ) < 1.1 && Math.abs( _ndc.y ) < 1.1;
-			tag.hidden = ! onScreen;
+			if ( tag.hidden === onScreen ) tag.hidden = ! onScreen;
 			if ( onScreen ) {
 
-				const x = ( _ndc.x + 1 ) / 2 * width;
-				const y = ( 1 - _ndc.y ) / 2 * height;
-				tag.style.left = `${x.toFixed( 1 )}px`;
-				tag.style.top = `${y.toFixed( 1 )}px`;
+				// Style writes cost layout work every frame: only when the tag moved a pixel.
+				const x = Math.round( ( _ndc.x + 1 ) / 2 * width );
+				const y = Math.round( ( 1 - _ndc.y ) / 2 * height );
+				if ( x !== entry.x || y !== entry.y ) {
+
+					entry.x = x;
+					entry.y = y;
+					tag.style.transform = `translate(${x}px, ${y}px) translate(-50%, -100%)`;
+
+				}
 
 			}
 

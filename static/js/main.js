@@ -10,6 +10,12 @@ window.linkview = Object.freeze( {
 		return app.connected;
 
 	},
+	/** The socket's state as the page reports it: connecting, connected or lost. */
+	get serverState() {
+
+		return app.socket ? app.socket.state : 'connecting';
+
+	},
 	/** True once every link mesh of every robot has loaded. */
 	get meshesLoaded() {
 
@@ -26,6 +32,56 @@ window.linkview = Object.freeze( {
 	linkMatrices( name ) {
 
 		return app.robots.linkMatrices( name );
+
+	},
+	/** What a robot's card shows: { joints (SI, the frame shown), tcp: { x, y, z, roll, pitch, yaw } as text }. */
+	readout( name ) {
+
+		return app.hud.shown( name );
+
+	},
+	/** Whether a robot is drawn, and whether it is greyed. */
+	robotState( name ) {
+
+		const view = app.robots.views.get( name );
+		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs } : null;
+
+	},
+	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
+	get plots() {
+
+		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, samples: app.plots.history ? app.plots.history.count : 0 };
+
+	},
+	get quality() {
+
+		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings } };
+
+	},
+	/** The simulation panel: ghosts drawn, which is selected, jog requests sent. */
+	get sim() {
+
+		return { robot: app.sim.view ? app.sim.view.name : null, ghosts: app.sim.ghosts.length, selected: app.sim.selected, jogs: app.sim.jogs, moving: app.sim.moving ? { ...app.sim.moving } : null };
+
+	},
+	/** Where the camera is and what it looks at (world frame, m). */
+	get camera() {
+
+		const { position } = app.stage.camera;
+		const { target } = app.stage.controls;
+		return { position: position.toArray(), target: target.toArray() };
+
+	},
+	/** Draw calls and triangles of the last rendered frame. */
+	get renderInfo() {
+
+		const { calls, triangles, lines } = app.stage.renderer.info.render;
+		return { calls, triangles, lines };
+
+	},
+	get bannerChanges() {
+
+		return app.hud.banner.changes;
 
 	},
 } );

@@ -1,11 +1,14 @@
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { forward } from './api.js';
+import { JointHistory } from './plots.js';
 import { RobotView } from './robot.js';
 
 /**
  * Every robot of the cell. Builds the views from `hello`, loads each link mesh
- * once (by URL) and keeps only the newest frame per robot until the next
- * animation frame applies it: a slow page skips stale frames instead of
- * falling behind.
+ * once (by URL), draws each robot at its zero pose until its first frame, and
+ * keeps only the newest frame per robot until the next animation frame applies
+ * it: a slow page skips stale frames instead of falling behind. Joint values of
+ * every frame go to the robot's JointHistory (the plots) on arrival.
  */
 class Robots {
 
@@ -13,6 +16,8 @@ class Robots {
 
 		this.world = world;
 		this.views = new Map(); // robot name -> RobotView, in hello order
+		this.byIndex = []; // hello index -> RobotView (protocol 2 names robots by index)
+		this.histories = new Map(); // robot name -> JointHistory
 		this.meshesLoaded = false;
 		this.loadError = null;
 		this.unknownFrames = 0;
@@ -33,15 +38,26 @@ class Robots {
 
 		const cell = JSON.stringify( hello.robots );
 		if ( cell === this._cell ) return false;
+		const previous = this.views;
 		this._clear();
 		this._cell = cell;
 		hello.robots.forEach( ( robot, index ) => {
 
 			const view = new RobotView( robot, index );
+			const before = previous.get( robot.name );
+			if ( before ) {
+
+				view.setShown( before.shown );
+				view.setTrail( before.trailOn );
+
+			}
 			this.views.set( robot.name, view );
+			this.byIndex.push( view );
+			this.histories.set( robot.name, new JointHistory( robot.joints ) );
 			this.world.add( view.group );
 
 		} );
+		for ( const old of previous.values() ) old.dispose();
 
 		const generation = ++ this._generation;
 		const views = [ ...this.views.values() ];
@@ -56,12 +72,32 @@ class Robots {
 			console.error( 'linkview:', this.loadError );
 
 		} );
+		for ( const view of views ) this._poseAtZero( view, generation );
 		return true;
 
 	}
 
+	// Until its first frame a robot is drawn at joints 0 (clamped into its limits), greyed.
+	async _poseAtZero( view, generation ) {
+
+		const zero = view.info.joints.map( ( joint ) => joint.limits ? Math.min( Math.max( 0, joint.limits[ 0 ] ), joint.limits[ 1 ] ) : 0 );
+		if ( zero.length === 0 ) return;
+		let result;
+		try {
+
+			result = await forward( view.name, [ zero ], true );
+
+		} catch {
+
+			return; // the server went away; the frames will pose the robot
+		}
+		if ( generation !== this._generation || ! result.ok || ! result.body.ok[ 0 ] ) return;
+		view.setZeroPose( result.body.links[ 0 ], result.body.tcp[ 0 ] );
+
+	}
+
 	/** Keep `frame` as the newest for its robot; older unapplied frames are dropped. */
-	queue( frame ) {
+	queue( frame, arrivalMs ) {
 
 		const view = this.views.get( frame.robot );
 		if ( view === undefined ) {
@@ -71,17 +107,20 @@ class Robots {
 
 		}
 		view.framesReceived ++;
+		// Plotted against the sample's own time: frames a busy page got in one burst
+		// still sit where they were sampled.
+		if ( frame.joints.length ) this.histories.get( frame.robot ).add( frame.joints, frame.t_source * 1000, arrivalMs );
 		this._pending.set( frame.robot, frame );
 
 	}
 
-	/** Apply the newest pending frame of each robot; returns how many robots changed. */
-	applyPending() {
+	/** Apply the newest pending frame of each robot; returns the frames applied. */
+	applyPending( timeMs ) {
 
-		const count = this._pending.size;
-		for ( const [ name, frame ] of this._pending ) this.views.get( name ).apply( frame );
+		const applied = [ ...this._pending.values() ];
+		for ( const frame of applied ) this.views.get( frame.robot ).apply( frame, timeMs );
 		this._pending.clear();
-		return count;
+		return applied;
 
 	}
 
@@ -118,8 +157,9 @@ class Robots {
 
 	_clear() {
 
-		for ( const view of this.views.values() ) view.dispose();
-		this.views.clear();
+		this.views = new Map();
+		this.byIndex = [];
+		this.histories = new Map();
 		this._pending.clear();
 		this.meshesLoaded = false;
 		this.loadError = null;
@@ -128,6 +168,7 @@ class Robots {
 
 	dispose() {
 
+		for ( const view of this.views.values() ) view.dispose();
 		this._clear();
 		this._generation ++;
 		for ( const promise of this._meshes.values() ) {

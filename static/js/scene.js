@@ -9,38 +9,45 @@ const _box = new THREE.Box3();
 const _size = new THREE.Vector3();
 const _centre = new THREE.Vector3();
 const _offset = new THREE.Vector3();
+const _sphere = new THREE.Sphere();
+
+/** Where the camera looks from, per view preset (Z up; "front" looks along +Y). */
+const VIEWS = {
+	iso: new THREE.Vector3( 0.55, - 0.75, 0.45 ).normalize(),
+	top: new THREE.Vector3( 0, - 1e-3, 1 ).normalize(), // a hair off the pole: OrbitControls needs a heading
+	front: new THREE.Vector3( 0, - 1, 0.02 ).normalize(),
+	side: new THREE.Vector3( 1, 0, 0.02 ).normalize(),
+};
+
+const THEMES = {
+	light: { grid: [ 0x9aa1ab, 0xc6cbd2 ], shadow: 0x1d2430 },
+	dark: { grid: [ 0x5d6573, 0x3a414c ], shadow: 0x000000 },
+};
 
 /**
  * Renderer, orbit camera, lights, floor grid and shadows: everything in the view
- * that is not a robot. Robots are added under `world`.
+ * that is not a robot. Robots are added under `world`. Quality settings
+ * (shadows, antialiasing, pixel ratio, environment light) can change at run
+ * time; antialiasing is fixed per WebGL context, so changing it makes a new
+ * renderer (the controls listen on the container, not the canvas, and survive).
  */
 class Stage {
 
 	constructor( container ) {
 
 		this.container = container;
-
-		this.renderer = new THREE.WebGLRenderer( { antialias: true, alpha: true } );
-		this.renderer.setPixelRatio( Math.min( window.devicePixelRatio, 2 ) );
-		this.renderer.toneMapping = THREE.NeutralToneMapping;
-		this.renderer.shadowMap.enabled = true;
-		this.renderer.shadowMap.type = THREE.PCFShadowMap;
-		container.appendChild( this.renderer.domElement );
+		this.settings = { shadows: true, antialias: true, pixelRatio: Math.min( window.devicePixelRatio, 2 ), environment: true, simpleMaterials: false };
+		this._loop = null;
+		this.insets = { left: 0, right: 0 }; // px of the view covered by panels
 
 		this.scene = new THREE.Scene();
-		// Soft image-based light from a neutral room; the room is Y up, so turn it to Z up.
-		this.pmrem = new THREE.PMREMGenerator( this.renderer );
-		const room = new RoomEnvironment();
-		this.environment = this.pmrem.fromScene( room, 0.04 ).texture;
-		room.dispose();
-		this.scene.environment = this.environment;
-		this.scene.environmentIntensity = 0.4;
-		this.scene.environmentRotation.set( Math.PI / 2, 0, 0 );
-
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
 		this.camera.position.set( 1.6, - 2.2, 1.4 );
 
-		this.controls = new OrbitControls( this.camera, this.renderer.domElement );
+		this.renderer = this._makeRenderer();
+		this._makeEnvironment();
+
+		this.controls = new OrbitControls( this.camera, container );
 		this.controls.target.set( 0, 0, 0.3 );
 		this.controls.enableDamping = true;
 		this.controls.dampingFactor = 0.1;
@@ -54,20 +61,60 @@ class Stage {
 		this.world.name = 'world';
 		this.scene.add( this.world );
 
+		this._dark = window.matchMedia( '(prefers-color-scheme: dark)' );
+		this._onTheme = () => this._applyTheme();
+		this._dark.addEventListener( 'change', this._onTheme );
+		this._applyTheme();
+
 		this._onResize = () => this.resize();
 		window.addEventListener( 'resize', this._onResize );
 		this.resize();
 
 	}
 
+	_makeRenderer() {
+
+		const renderer = new THREE.WebGLRenderer( { antialias: this.settings.antialias, alpha: true } );
+		renderer.setPixelRatio( this.settings.pixelRatio );
+		renderer.toneMapping = THREE.NeutralToneMapping;
+		renderer.shadowMap.enabled = this.settings.shadows;
+		renderer.shadowMap.type = THREE.PCFShadowMap;
+		renderer.domElement.setAttribute( 'aria-label', '3D view of the cell: drag to orbit, wheel to zoom, Home to reset' );
+		renderer.domElement.setAttribute( 'role', 'img' );
+		this.container.appendChild( renderer.domElement );
+		return renderer;
+
+	}
+
+	// Soft image-based light from a neutral room; the room is Y up, so turn it to Z up.
+	_makeEnvironment() {
+
+		this.pmrem = new THREE.PMREMGenerator( this.renderer );
+		const room = new RoomEnvironment();
+		this.environment = this.pmrem.fromScene( room, 0.04 ).texture;
+		room.dispose();
+		this.scene.environmentIntensity = 0.4;
+		this.scene.environmentRotation.set( Math.PI / 2, 0, 0 );
+		this.scene.environment = this.settings.environment ? this.environment : null;
+
+	}
+
+	_disposeEnvironment() {
+
+		this.scene.environment = null;
+		this.environment.dispose();
+		this.pmrem.dispose();
+
+	}
+
 	_addLights() {
 
-		const hemi = new THREE.HemisphereLight( 0xf4f6ff, 0x8a8f99, 0.6 );
-		this.scene.add( hemi );
+		this.hemi = new THREE.HemisphereLight( 0xf4f6ff, 0x8a8f99, 0.6 );
+		this.scene.add( this.hemi );
 
 		const sun = new THREE.DirectionalLight( 0xffffff, 1.9 );
 		sun.position.set( 2.5, - 1.5, 4.0 );
-		sun.castShadow = true;
+		sun.castShadow = this.settings.shadows;
 		sun.shadow.mapSize.set( 2048, 2048 );
 		sun.shadow.bias = - 0.0004;
 		sun.shadow.normalBias = 0.01;
@@ -92,9 +139,20 @@ class Stage {
 		floor.renderOrder = - 2;
 		this.scene.add( floor );
 		this.floor = floor;
+		this._makeGrid( THEMES.light );
 
+	}
+
+	_makeGrid( theme ) {
+
+		if ( this.grid ) {
+
+			this.grid.removeFromParent();
+			this.grid.dispose();
+
+		}
 		// GridHelper lies in XZ; the floor here is the XY plane.
-		const grid = new THREE.GridHelper( 8, 32, 0x9aa1ab, 0xc6cbd2 );
+		const grid = new THREE.GridHelper( 8, 32, theme.grid[ 0 ], theme.grid[ 1 ] );
 		grid.rotation.x = Math.PI / 2;
 		grid.material.transparent = true;
 		grid.material.opacity = 0.7;
@@ -105,26 +163,141 @@ class Stage {
 
 	}
 
-	/** Point the camera (and the sun's shadow frustum) at everything under `world`. */
-	frameWorld() {
+	_applyTheme() {
 
-		_box.setFromObject( this.world );
-		if ( _box.isEmpty() ) return;
+		const theme = this._dark.matches ? THEMES.dark : THEMES.light;
+		this._makeGrid( theme );
+		this.floor.material.color.set( theme.shadow );
+		this.floor.material.opacity = this._dark.matches ? 0.35 : 0.18;
 
-		_box.getSize( _size );
-		_box.getCenter( _centre );
-		const radius = Math.max( _size.length() / 2, 0.3 );
-		const fov = THREE.MathUtils.degToRad( this.camera.fov );
-		const distance = radius / Math.sin( fov / 2 );
-		_offset.set( 0.55, - 0.75, 0.45 ).normalize().multiplyScalar( distance );
+	}
+
+	/** Run `loop(time)` on every animation frame (kept across renderer changes). */
+	setAnimationLoop( loop ) {
+
+		this._loop = loop;
+		this.renderer.setAnimationLoop( loop );
+
+	}
+
+	/**
+	 * Change quality: any of shadows, antialias, environment (bool), pixelRatio (number);
+	 * simpleMaterials is kept here for the robots to read.
+	 */
+	setQuality( settings ) {
+
+		const next = { ...this.settings, ...settings };
+		const changed = ( key ) => next[ key ] !== this.settings[ key ];
+		const rebuild = changed( 'antialias' );
+		const recompile = changed( 'shadows' ) || changed( 'environment' );
+		const resize = changed( 'pixelRatio' );
+		this.settings = next;
+		if ( rebuild ) {
+
+			const old = this.renderer;
+			old.setAnimationLoop( null );
+			this._disposeEnvironment();
+			this.renderer = this._makeRenderer();
+			old.domElement.remove();
+			old.dispose();
+			this._makeEnvironment();
+			this.renderer.setAnimationLoop( this._loop );
+			this.resize();
+
+		}
+		this.renderer.shadowMap.enabled = next.shadows;
+		this.sun.castShadow = next.shadows;
+		this.floor.visible = next.shadows;
+		this.scene.environment = next.environment ? this.environment : null;
+		// Without the room's light the scene would be dark: the sky light makes up for it.
+		this.hemi.intensity = next.environment ? 0.6 : 1.5;
+		if ( resize ) {
+
+			this.renderer.setPixelRatio( next.pixelRatio );
+			this.resize();
+
+		}
+		if ( recompile ) this.scene.traverse( ( object ) => {
+
+			if ( object.material ) for ( const m of [].concat( object.material ) ) m.needsUpdate = true;
+
+		} );
+
+	}
+
+	/** Pixels of the view's left and right covered by panels: framing keeps robots out from under them. */
+	setInsets( left, right ) {
+
+		this.insets = { left, right };
+		this._applyFilmOffset();
+
+	}
+
+	// Shift the image so the view's centre is the middle of the part no panel covers.
+	_applyFilmOffset() {
+
+		const width = this.container.clientWidth || window.innerWidth;
+		const shiftPx = ( this.insets.left - this.insets.right ) / 2;
+		const camera = this.camera;
+		const widthAtUnit = 2 * Math.tan( THREE.MathUtils.degToRad( camera.fov ) / 2 ) * camera.aspect;
+		camera.filmOffset = - ( shiftPx / width ) * widthAtUnit * camera.getFilmWidth();
+		camera.updateProjectionMatrix();
+
+	}
+
+	/** The box of every visible robot (world frame); empty if none is shown. */
+	worldBox( views, target = _box ) {
+
+		target.makeEmpty();
+		const one = new THREE.Box3();
+		for ( const view of views ) target.union( view.worldBox( one ) );
+		return target;
+
+	}
+
+	/** Point the camera at `box` from `direction` (unit vector, default: where it looks from now). */
+	frameBox( box, direction = null ) {
+
+		if ( box.isEmpty() ) return false;
+		box.getSize( _size );
+		box.getCenter( _centre );
+		box.getBoundingSphere( _sphere );
+		const radius = Math.max( _sphere.radius, 0.15 );
+		const camera = this.camera;
+		const width = this.container.clientWidth || window.innerWidth;
+		const free = Math.max( 0.3, ( width - this.insets.left - this.insets.right ) / width );
+		const halfV = THREE.MathUtils.degToRad( camera.fov ) / 2;
+		const halfH = Math.atan( Math.tan( halfV ) * camera.aspect * free );
+		const distance = radius / Math.sin( Math.min( halfV, halfH ) ) * 1.05;
+		if ( direction === null ) direction = _offset.copy( camera.position ).sub( this.controls.target ).normalize();
+		else direction = _offset.copy( direction );
 		this.controls.target.copy( _centre );
-		this.camera.position.copy( _centre ).add( _offset );
-		this.camera.near = distance / 100;
-		this.camera.far = distance * 20;
-		this.camera.updateProjectionMatrix();
+		camera.position.copy( _centre ).addScaledVector( direction, distance );
+		camera.near = distance / 100;
+		camera.far = distance * 20;
+		camera.updateProjectionMatrix();
 		this.controls.update();
+		return true;
 
-		// Fit the sun's shadow frustum around the robots.
+	}
+
+	/** Frame every visible robot from a preset direction (iso, top, front, side) or the current one. */
+	frameAll( views, preset = null ) {
+
+		const box = this.worldBox( views );
+		const framed = this.frameBox( box, preset ? VIEWS[ preset ] : null );
+		if ( framed ) this.fitShadow( box );
+		return framed;
+
+	}
+
+	/** Fit the sun's shadow frustum around `box` (the robots). */
+	fitShadow( box ) {
+
+		if ( box.isEmpty() ) return;
+		box.getCenter( _centre );
+		box.getBoundingSphere( _sphere );
+		const radius = Math.max( _sphere.radius, 0.3 );
 		const shadow = this.sun.shadow.camera;
 		const half = radius * 1.3;
 		shadow.left = - half;
@@ -144,8 +317,8 @@ class Stage {
 		const width = this.container.clientWidth || window.innerWidth;
 		const height = this.container.clientHeight || window.innerHeight;
 		this.camera.aspect = width / height;
-		this.camera.updateProjectionMatrix();
 		this.renderer.setSize( width, height, false );
+		this._applyFilmOffset();
 
 	}
 
@@ -159,13 +332,13 @@ class Stage {
 	dispose() {
 
 		window.removeEventListener( 'resize', this._onResize );
+		this._dark.removeEventListener( 'change', this._onTheme );
 		this.renderer.setAnimationLoop( null );
 		this.controls.dispose();
 		this.floor.geometry.dispose();
 		this.floor.material.dispose();
 		this.grid.dispose();
-		this.environment.dispose();
-		this.pmrem.dispose();
+		this._disposeEnvironment();
 		this.renderer.dispose();
 		this.renderer.domElement.remove();
 
@@ -173,4 +346,4 @@ class Stage {
 
 }
 
-export { Stage };
+export { Stage, VIEWS };

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import socket
 import subprocess
@@ -11,9 +12,12 @@ import urllib.error
 import urllib.request
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pytest
+from playwright.sync_api import Browser, ConsoleMessage, Page, sync_playwright
 
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = Path("/usr/bin/chromium")
@@ -78,3 +82,137 @@ def server_process(
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait(timeout=10)
+
+
+@contextmanager
+def chromium() -> Iterator[Browser]:
+    """Debian's Chromium, headless, with software WebGL (SwiftShader)."""
+    assert CHROMIUM.exists(), f"{CHROMIUM} is missing: apt-get install chromium"
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(
+            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
+        )
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+@dataclass
+class Watched:
+    """A page with what it logged and requested: console errors, page errors, URLs."""
+
+    page: Page
+    console_errors: list[str] = field(default_factory=list)
+    page_errors: list[str] = field(default_factory=list)
+    requests: list[str] = field(default_factory=list)
+
+    def assert_clean(self, expected: str | None = None) -> None:
+        """No uncaught exception and no console error (but those starting with ``expected``)."""
+        assert not self.page_errors, self.page_errors
+        errors = [e for e in self.console_errors if expected is None or not e.startswith(expected)]
+        assert not errors, errors
+
+
+def watch(page: Page) -> Watched:
+    """Record ``page``'s console errors, uncaught exceptions, requests and WebSockets."""
+    watched = Watched(page)
+
+    def on_console(message: ConsoleMessage) -> None:
+        if message.type == "error":
+            watched.console_errors.append(f"{message.text} ({message.location})")
+
+    page.on("console", on_console)
+    page.on("pageerror", lambda error: watched.page_errors.append(str(error)))
+    page.on("request", lambda request: watched.requests.append(request.url))
+    page.on("websocket", lambda ws: watched.requests.append(ws.url))
+    return watched
+
+
+def open_page(page: Page, url: str, timeout_ms: float = 30_000) -> None:
+    """Load the viewer at ``url`` and wait until every mesh is in and every robot had a frame."""
+    page.goto(url, wait_until="load")
+    page.wait_for_function(
+        "() => window.linkview && window.linkview.meshesLoaded", timeout=timeout_ms
+    )
+    page.wait_for_function(
+        "() => { const n = Object.values(window.linkview.framesApplied);"
+        " return n.length > 0 && n.every(c => c > 0); }",
+        timeout=timeout_ms,
+    )
+
+
+# Page-side sampler of the banner: its text every 50 ms, kept only when it changed.
+START_BANNER_LOG = """() => {
+  const banner = document.getElementById('banner');
+  const text = () => banner.hidden ? '' : banner.textContent;
+  window.__bannerLog = [text()];
+  clearInterval(window.__bannerTimer);
+  window.__bannerTimer = setInterval(() => {
+    const now = text();
+    if (now !== window.__bannerLog[window.__bannerLog.length - 1]) window.__bannerLog.push(now);
+  }, 50);
+}"""
+
+
+def banner_log(page: Page) -> list[str]:
+    """Every banner text the sampler saw, in order (consecutive duplicates removed)."""
+    log: list[str] = page.evaluate("window.__bannerLog")
+    return log
+
+
+@contextmanager
+def mock_process(port: int, log: Path) -> Iterator[str]:
+    """``python -m server.mock_ctrlx`` on ``port`` until the block ends; yields its URL."""
+    url = f"http://127.0.0.1:{port}"
+    with log.open("ab") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "server.mock_ctrlx", "--host", "127.0.0.1", "--port", str(port)],
+            cwd=ROOT,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
+        try:
+            deadline = time.monotonic() + HEALTH_TIMEOUT_S
+            while True:
+                if proc.poll() is not None:
+                    pytest.fail(f"mock exited with {proc.returncode}:\n{log.read_text()}")
+                try:
+                    with urllib.request.urlopen(f"{url}/mock/faults", timeout=2):
+                        break
+                except (urllib.error.URLError, ConnectionError, TimeoutError):
+                    if time.monotonic() > deadline:
+                        pytest.fail(f"the mock did not answer within {HEALTH_TIMEOUT_S} s")
+                    time.sleep(0.1)
+            yield url
+        finally:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=10)
+
+
+def set_faults(mock_url: str, **faults: object) -> None:
+    """Switch the mock's faults, e.g. ``outage=True`` (its loopback-only admin endpoint)."""
+    request = urllib.request.Request(
+        f"{mock_url}/mock/faults",
+        data=json.dumps(faults).encode(),
+        method="PUT",
+        headers={"content-type": "application/json"},
+    )
+    with urllib.request.urlopen(request, timeout=5) as response:
+        assert response.status == 200
+
+
+def post_json(url: str, body: object) -> tuple[int, Any]:
+    """POST ``body`` as JSON; the status and the decoded answer."""
+    request = urllib.request.Request(
+        url, data=json.dumps(body).encode(), headers={"content-type": "application/json"}
+    )
+    try:
+        with urllib.request.urlopen(request, timeout=10) as response:
+            return response.status, json.loads(response.read())
+    except urllib.error.HTTPError as error:
+        return error.code, json.loads(error.read())

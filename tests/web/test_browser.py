@@ -1,110 +1,384 @@
-"""The page in a real browser against the real server: meshes load, robots move, nothing leaks.
+"""The page in a real browser against the real server: robots, readouts, plots, simulation.
 
 Drives Debian's Chromium (``/usr/bin/chromium``, software WebGL through
-SwiftShader) with the playwright package; it never downloads a browser. The
-server runs as a subprocess, ``python -m server``, with its embedded mock
-controller. A screenshot is saved to ``tests/artifacts/browser.png``.
+SwiftShader) with the playwright package; it never downloads a browser. One
+server (``python -m server``, the demo cell with its embedded mock controller)
+and one page serve the whole module; screenshots go to ``tests/artifacts/``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
 
 import pytest
-from playwright.sync_api import ConsoleMessage, Error, Request, WebSocket, sync_playwright
+from playwright.sync_api import Browser, Page
 
-from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, ROOT, free_port, server_process
+from tests.web._browser import (
+    ROOT,
+    Watched,
+    chromium,
+    free_port,
+    open_page,
+    post_json,
+    server_process,
+    watch,
+)
 
 ARTIFACTS = ROOT / "tests" / "artifacts"
-LOAD_TIMEOUT_MS = 30_000
+TIMEOUT_MS = 30_000
 NOT_NETWORK = ("data", "blob", "about")
 """URL schemes that never leave the page."""
 
 
-@pytest.fixture
-def server_url(tmp_path: Path) -> Iterator[str]:
-    """``python -m server`` on a free loopback port; always terminated afterwards."""
-    with server_process(free_port(), tmp_path / "server.log") as url:
+@pytest.fixture(scope="module")
+def server_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """``python -m server`` on a free loopback port for the whole module."""
+    log = tmp_path_factory.mktemp("server") / "server.log"
+    with server_process(free_port(), log) as url:
         yield url
 
 
-def _matrices(page: Any, names: list[str]) -> dict[str, list[list[float]]]:
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Browser]:
+    with chromium() as launched:
+        yield launched
+
+
+@pytest.fixture(scope="module")
+def viewer(browser: Browser, server_url: str) -> Iterator[Watched]:
+    """The page at 1280x800, loaded, every robot moving (quality pinned low: tests run faster)."""
+    page = browser.new_page(viewport={"width": 1280, "height": 800})
+    watched = watch(page)
+    open_page(page, f"{server_url}/?quality=5", TIMEOUT_MS)
+    yield watched
+    page.close()
+
+
+def _matrices(page: Page, names: list[str]) -> dict[str, list[list[float]]]:
     result: dict[str, list[list[float]]] = page.evaluate(
         "names => Object.fromEntries(names.map(n => [n, window.linkview.linkMatrices(n)]))", names
     )
     return result
 
 
-def test_page_shows_moving_robots(server_url: str) -> None:
-    assert CHROMIUM.exists(), f"{CHROMIUM} is missing: apt-get install chromium"
-    console_errors: list[str] = []
-    page_errors: list[str] = []
-    requests: list[str] = []
+def _names(page: Page) -> list[str]:
+    names: list[str] = page.evaluate("Object.keys(window.linkview.framesApplied)")
+    return names
 
-    def on_console(message: ConsoleMessage) -> None:
-        if message.type == "error":
-            console_errors.append(f"{message.text} ({message.location})")
 
-    def on_request(request: Request) -> None:
-        requests.append(request.url)
+def _screenshot(page: Page, name: str) -> None:
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / name))
 
-    def on_websocket(ws: WebSocket) -> None:
-        requests.append(ws.url)
 
-    def on_page_error(error: Error) -> None:
-        page_errors.append(str(error))
-
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(
-            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
-        )
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.on("console", on_console)
-            page.on("pageerror", on_page_error)
-            page.on("request", on_request)
-            page.on("websocket", on_websocket)
-
-            page.goto(f"{server_url}/", wait_until="load")
-            page.wait_for_function(
-                "() => window.linkview && window.linkview.meshesLoaded", timeout=LOAD_TIMEOUT_MS
-            )
-            page.wait_for_function(
-                "() => { const n = Object.values(window.linkview.framesApplied);"
-                " return n.length > 0 && n.every(c => c > 0); }",
-                timeout=LOAD_TIMEOUT_MS,
-            )
-            assert page.evaluate("window.linkview.connected") is True
-            names: list[str] = page.evaluate("Object.keys(window.linkview.framesApplied)")
-
-            first = _matrices(page, names)
-            page.wait_for_timeout(500)
-            second = _matrices(page, names)
-
-            # Let the camera settle on the robots before the picture is taken.
-            page.wait_for_timeout(1000)
-            ARTIFACTS.mkdir(exist_ok=True)
-            page.screenshot(path=str(ARTIFACTS / "browser.png"))
-        finally:
-            browser.close()
+def test_page_shows_moving_robots(viewer: Watched) -> None:
+    page = viewer.page
+    assert page.evaluate("window.linkview.connected") is True
+    names = _names(page)
+    first = _matrices(page, names)
+    page.wait_for_timeout(500)
+    second = _matrices(page, names)
+    # Let the camera settle on the robots before the picture is taken.
+    page.wait_for_timeout(1000)
+    _screenshot(page, "browser.png")
 
     for name in names:
         links = first[name]
         assert links and all(len(m) == 16 for m in links), f"{name}: bad link matrices {links}"
     still = [name for name in names if first[name] == second[name]]
     assert not still, f"robots that did not move in 0.5 s: {still}"
-    assert not page_errors, page_errors
-    assert not console_errors, console_errors
+    viewer.assert_clean()
+    assert any(urlsplit(url).path.endswith(".glb") for url in viewer.requests), "no mesh requested"
 
+
+def test_pills_say_the_server_and_the_controller_are_up(viewer: Watched) -> None:
+    page = viewer.page
+    page.wait_for_function("() => document.getElementById('banner').hidden", timeout=TIMEOUT_MS)
+    assert page.inner_text("#pill-server") == "server: connected"
+    assert page.inner_text("#pill-controllers") == "controller: connected"
+    assert "demo (mock)" in page.inner_text("#sources")
+
+
+def _fk(server_url: str, name: str, joints: list[float]) -> dict[str, Any]:
+    status, answer = post_json(f"{server_url}/api/robots/{name}/fk", {"joints": [joints]})
+    assert status == 200 and answer["ok"] == [True], answer
+    return {"tcp": answer["tcp"][0], "rpy": answer["rpy"][0]}
+
+
+# The TCP fields of a robot's card, and the joints and text the page says it shows there.
+READOUT = """name => {
+  const card = document.querySelector(`article.robot[data-robot="${name}"]`);
+  const dom = Object.fromEntries([...card.querySelectorAll('[data-tcp]')]
+    .map(el => [el.dataset.tcp, el.textContent]));
+  return { hook: window.linkview.readout(name), dom };
+}"""
+
+
+def _angle_gap(a_deg: float, b_deg: float) -> float:
+    return abs((a_deg - b_deg + 180.0) % 360.0 - 180.0)
+
+
+def test_tcp_readout_matches_fk_for_the_joints_shown(viewer: Watched, server_url: str) -> None:
+    page = viewer.page
+    for name in _names(page):
+        shown = page.evaluate(READOUT, name)
+        assert shown["hook"] is not None, name
+        # The card shows what the page read, at the same instant.
+        assert shown["dom"] == shown["hook"]["tcp"], shown
+        expected = _fk(server_url, name, shown["hook"]["joints"])
+        text = shown["dom"]
+        # Shown to 0.1 mm and 0.1 deg: a correct readout is within half of that.
+        for axis, metres in zip("xyz", expected["tcp"][:3], strict=True):
+            assert abs(float(text[axis]) - metres * 1000) <= 0.051, (name, axis, text, expected)
+        roll, pitch, yaw = (math.degrees(a) for a in expected["rpy"])
+        assert abs(float(text["pitch"]) - pitch) <= 0.051, (name, text, expected)
+        if abs(pitch) < 89.0:  # at gimbal lock only yaw -/+ roll is defined
+            assert _angle_gap(float(text["roll"]), roll) <= 0.051, (name, text, expected)
+            assert _angle_gap(float(text["yaw"]), yaw) <= 0.051, (name, text, expected)
+    page.wait_for_function("() => window.linkview.robotState('iiwa7').latencyMs !== null")
+    state = page.evaluate("window.linkview.robotState('iiwa7')")
+    assert 0 <= state["latencyMs"] < 5000, state  # sample to screen, on one machine
+    assert "latency" in page.locator("article.robot[data-robot='iiwa7'] .robot-state").inner_text()
+
+
+def _plot_pixels(page: Page) -> list[str]:
+    pixels: list[str] = page.evaluate(
+        "[...document.querySelectorAll('#plots canvas')].map(c => c.toDataURL())"
+    )
+    return pixels
+
+
+def test_joint_plots_are_drawn_and_move(viewer: Watched) -> None:
+    page = viewer.page
+    page.select_option("#selected-robot", "iiwa7")
+    page.wait_for_function("() => window.linkview.plots.robot === 'iiwa7'")
+    assert page.locator("#plots canvas").count() == 7
+    assert page.locator("#plots figcaption").first.inner_text() == "a1 (°)"
+    before = page.evaluate("window.linkview.plots.redraws")
+    first = _plot_pixels(page)
+    page.wait_for_timeout(600)
+    after = page.evaluate("window.linkview.plots.redraws")
+    second = _plot_pixels(page)
+    assert after > before, (before, after)
+    moved = [i for i, (a, b) in enumerate(zip(first, second, strict=True)) if a != b]
+    assert len(moved) >= 5, f"plots that did not change in 0.6 s: {len(first) - len(moved)}"
+    _screenshot(page, "plots.png")
+
+
+def test_hiding_a_robot_removes_it(viewer: Watched) -> None:
+    page = viewer.page
+    page.uncheck("input[aria-label='show iiwa7']")
+    page.wait_for_function("() => !window.linkview.robotState('iiwa7').visible")
+    page.wait_for_timeout(200)
+    hidden = page.evaluate("window.linkview.renderInfo")
+    page.check("input[aria-label='show iiwa7']")
+    page.wait_for_function("() => window.linkview.robotState('iiwa7').visible")
+    page.wait_for_timeout(200)
+    shown = page.evaluate("window.linkview.renderInfo")
+    # iiwa7's meshes hold some 60 % of the cell's triangles: not drawn while it is hidden.
+    assert hidden["triangles"] < 0.6 * shown["triangles"], (hidden, shown)
+    assert hidden["calls"] < shown["calls"], (hidden, shown)
+    assert page.evaluate("window.linkview.robotState('kin12').visible") is True
+
+
+def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched) -> None:
+    page = viewer.page
+    page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 10")
+    page.uncheck("input[aria-label='draw the TCP trail of iiwa7']")
+    page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints === 0")
+    page.check("input[aria-label='draw the TCP trail of iiwa7']")
+    page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 2")
+    # A shorter trail: at 50 samples/s, 1 s holds at most some 50 points.
+    page.fill("#trail-seconds", "1")
+    page.dispatch_event("#trail-seconds", "change")
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.linkview.robotState('positioner').trailPoints") <= 52
+    page.fill("#trail-seconds", "5")
+    page.dispatch_event("#trail-seconds", "change")
+
+
+def _view_direction(page: Page) -> list[float]:
+    camera = page.evaluate("window.linkview.camera")
+    d = [p - t for p, t in zip(camera["position"], camera["target"], strict=True)]
+    norm = math.hypot(*d)
+    return [v / norm for v in d]
+
+
+def test_view_presets_focus_and_home(viewer: Watched) -> None:
+    page = viewer.page
+    page.click("button[data-view='top']")
+    assert _view_direction(page)[2] > 0.99  # looking down
+    page.click("button[data-view='front']")
+    assert _view_direction(page)[1] < -0.99  # from -Y
+    page.click("button[data-view='side']")
+    assert _view_direction(page)[0] > 0.99  # from +X
+    page.click("button[aria-label='focus the camera on kin12']")
+    target = page.evaluate("window.linkview.camera.target")
+    base = page.evaluate("window.linkview.linkMatrices('kin12')[0]")
+    assert math.dist(target[:2], base[12:14]) < 0.4, (target, base)  # kin12 is ~0.3 m wide
+    page.keyboard.press("Home")
+    x, y, z = _view_direction(page)
+    assert x > 0.3 and y < -0.5 and z > 0.3, (x, y, z)  # back to the iso view of everything
+    labels = page.evaluate("[...document.querySelectorAll('.label')].map(l => !l.hidden)")
+    assert labels == [True, True, True]  # every robot is on screen
+
+
+def _type_target(page: Page, values: dict[str, float]) -> None:
+    for key, value in values.items():
+        page.fill(f"#target-{key}", f"{value:.1f}")
+
+
+def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_url: str) -> None:
+    page = viewer.page
+    page.select_option("#selected-robot", "iiwa7")
+    page.wait_for_function("() => window.linkview.sim.robot === 'iiwa7'")
+    assert page.is_visible("#sim")
+    # A pose the arm can take, reached from another configuration than the current one.
+    goal = [0.3, 0.5, -0.2, -1.2, 0.4, 0.9, 0.1]
+    fk = _fk(server_url, "iiwa7", goal)
+    x, y, z = (v * 1000 for v in fk["tcp"][:3])
+    roll, pitch, yaw = (math.degrees(a) for a in fk["rpy"])
+    _type_target(page, {"x": x, "y": y, "z": z, "roll": roll, "pitch": pitch, "yaw": yaw})
+    page.click("#solve")
+    page.wait_for_function("() => window.linkview.sim.ghosts > 0", timeout=TIMEOUT_MS)
+    sim = page.evaluate("window.linkview.sim")
+    assert sim["ghosts"] >= 2 and sim["selected"] >= 0, sim  # the iiwa reaches it several ways
+    assert page.locator("#solutions input[type=radio]:checked").count() == 1
+    assert "reach the target" in page.inner_text("#sim-status")
+    page.check("#gizmo-on")  # the target can be dragged in the view too
+    _screenshot(page, "ghosts.png")
+    page.uncheck("#gizmo-on")
+
+    page.click("#move")
+    page.wait_for_function(
+        "() => document.getElementById('sim-status').textContent.startsWith('Arrived')",
+        timeout=TIMEOUT_MS,
+    )
+    # Within 1 mm: the TCP of the joints the page shows, by the server's own FK.
+    shown = page.evaluate("window.linkview.readout('iiwa7')")
+    reached = _fk(server_url, "iiwa7", shown["joints"])["tcp"][:3]
+    target = [float(page.input_value(f"#target-{k}")) / 1000 for k in "xyz"]
+    assert math.dist(reached, target) <= 0.001 + 1e-4, (reached, target)
+    assert page.evaluate("window.linkview.sim.ghosts") >= 2  # the preview stays until a new solve
+
+    _type_target(page, {"x": 5000.0})
+    page.click("#solve")
+    page.wait_for_function(
+        "() => document.getElementById('sim-status').textContent.startsWith('Unreachable')",
+        timeout=TIMEOUT_MS,
+    )
+    assert "out of reach" in page.inner_text("#sim-status")
+    assert page.evaluate("window.linkview.sim.ghosts") == 0
+    assert page.is_disabled("#move")
+
+
+def test_jogging_coalesces_moves(viewer: Watched) -> None:
+    page = viewer.page
+    page.select_option("#selected-robot", "kin12")
+    page.wait_for_function("() => window.linkview.sim.robot === 'kin12'")
+    before = page.evaluate("window.linkview.sim.jogs")
+    # 40 slider steps as fast as the page takes them: a handful of moves, the last one last.
+    page.evaluate(
+        """() => { const s = document.querySelector("input[aria-label='jog a0']");
+        for (let i = 0; i < 40; i++) { s.value = String(-20 + i * 0.5);
+          s.dispatchEvent(new Event('input', { bubbles: true })); } }"""
+    )
+    page.wait_for_timeout(600)
+    sent = page.evaluate("window.linkview.sim.jogs") - before
+    assert 1 <= sent <= 3, sent
+    page.wait_for_function(
+        "() => Math.abs(window.linkview.readout('kin12').joints[0] * 180 / Math.PI - (-0.5)) < 0.6",
+        timeout=TIMEOUT_MS,
+    )
+
+
+def test_every_control_says_what_it_does(viewer: Watched) -> None:
+    unnamed = viewer.page.evaluate(
+        """() => [...document.querySelectorAll('button, input, select')].filter(el => {
+             if (el.getAttribute('aria-label')) return false;
+             if (el.closest('label')) return false;
+             if (el.id && document.querySelector(`label[for="${el.id}"]`)) return false;
+             return !(el.tagName === 'BUTTON' && el.textContent.trim());
+           }).map(el => el.outerHTML)"""
+    )
+    assert not unnamed, unnamed
+
+
+def test_theme_follows_the_color_scheme(viewer: Watched) -> None:
+    page = viewer.page
+    panel = "getComputedStyle(document.getElementById('hud')).backgroundColor"
+    page.emulate_media(color_scheme="light")
+    light = page.evaluate(panel)
+    page.emulate_media(color_scheme="dark")
+    dark = page.evaluate(panel)
+    page.emulate_media(color_scheme="light")
+    channels = [float(c) for c in dark[dark.index("(") + 1 : -1].split(",")[:3]]
+    assert light != dark and max(channels) < 80, (light, dark)
+
+
+def test_quality_can_be_pinned_and_stays_legible(viewer: Watched) -> None:
+    page = viewer.page
+    page.select_option("#quality", "5")
+    page.wait_for_function("() => window.linkview.quality.level === 5")
+    settings = page.evaluate("window.linkview.quality.settings")
+    assert settings == {
+        "shadows": False,
+        "antialias": False,
+        "pixelRatio": 1,
+        "environment": False,
+        "simpleMaterials": True,
+    }
+    page.wait_for_timeout(300)
+    _screenshot(page, "quality-lowest.png")
+    # Antialiasing is fixed per WebGL context: turning it on makes a new renderer
+    # (in a smaller window: software antialiasing at 1280x800 is slow, not interesting).
+    page.set_viewport_size({"width": 900, "height": 500})
+    try:
+        before = page.evaluate("Object.values(window.linkview.framesApplied)[0]")
+        page.select_option("#quality", "1")
+        page.wait_for_function("() => window.linkview.quality.settings.antialias")
+        page.wait_for_function(
+            f"() => Object.values(window.linkview.framesApplied)[0] > {before + 2}",
+            timeout=TIMEOUT_MS,
+        )
+        assert page.locator("#viewport canvas").count() == 1
+        page.select_option("#quality", "5")
+        page.wait_for_function("() => window.linkview.quality.level === 5")
+    finally:
+        page.set_viewport_size({"width": 1280, "height": 800})
+
+
+def test_narrow_screen_collapses_the_panels(viewer: Watched) -> None:
+    page = viewer.page
+    page.set_viewport_size({"width": 760, "height": 800})
+    try:
+        for panel in ("#hud", "#inspector"):
+            page.wait_for_function(
+                f"() => document.querySelector('{panel}').classList.contains('collapsed')"
+            )
+            box = page.locator(panel).bounding_box()
+            assert box is not None and box["height"] < 80 and box["width"] < 380, (panel, box)
+        page.click("#hud .panel-toggle")
+        assert "collapsed" not in (page.get_attribute("#hud", "class") or "")
+        assert page.get_attribute("#hud .panel-toggle", "aria-expanded") == "true"
+        _screenshot(page, "narrow.png")
+    finally:
+        page.set_viewport_size({"width": 1280, "height": 800})
+    page.wait_for_function("() => !document.querySelector('#hud').classList.contains('collapsed')")
+
+
+def test_no_console_error_and_no_request_leaving_the_server(
+    viewer: Watched, server_url: str
+) -> None:
+    viewer.assert_clean()
     origin = urlsplit(server_url)
     foreign = [
         url
-        for url in requests
+        for url in viewer.requests
         if urlsplit(url).scheme not in NOT_NETWORK
         and (urlsplit(url).hostname, urlsplit(url).port) != (origin.hostname, origin.port)
     ]
     assert not foreign, f"requests outside {server_url}: {foreign}"
-    assert any(urlsplit(url).path.endswith(".glb") for url in requests), "no mesh was requested"

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import re
 from collections import defaultdict
+from dataclasses import fields
 from pathlib import Path
 
 import pytest
@@ -19,9 +20,11 @@ from pydantic import BaseModel
 from server.protocol import (
     MESSAGE_TYPES,
     Frame,
+    Frames2,
     Hello,
     JointInfo,
     LinkInfo,
+    RobotFrame2,
     RobotInfo,
     SourceStatus,
     Status,
@@ -95,3 +98,34 @@ def test_every_field_the_page_reads_exists(name: str) -> None:
 def test_the_page_handles_exactly_the_protocol_messages() -> None:
     handled = set(MESSAGE_CASE.findall((JS_DIR / "app.js").read_text()))
     assert handled == set(MESSAGE_TYPES)
+
+
+# Protocol 2: the decoder's objects carry the fields of the server's decoded dataclasses,
+# and the page reads no others (`frames` is a decoded message, `entry` one robot of it).
+DECODED = re.compile(r"robots\[\s*r\s*\]\s*=\s*\{([^}]*)\}")
+RETURNED = re.compile(r"return\s*\{\s*(seq[^}]*)\}")
+
+
+def _keys(literal: str) -> set[str]:
+    return {part.split(":")[0].strip() for part in literal.split(",") if part.strip()}
+
+
+def test_protocol2_decoder_returns_the_fields_of_decode_frames() -> None:
+    source = (JS_DIR / "protocol2.js").read_text()
+    robot = DECODED.search(source)
+    message = RETURNED.search(source)
+    assert robot and message, "decodeFrames no longer builds its objects where this test looks"
+    assert _keys(robot[1]) == {f.name for f in fields(RobotFrame2)}
+    assert _keys(message[1]) == {f.name for f in fields(Frames2)}
+
+
+def test_page_reads_only_decoded_protocol2_fields() -> None:
+    source = COMMENT.sub("", (JS_DIR / "app.js").read_text())
+    allowed = {
+        "frames": {f.name for f in fields(Frames2)},
+        "entry": {f.name for f in fields(RobotFrame2)},
+    }
+    read = re.findall(r"(?<![\w$.])(frames|entry)\.([A-Za-z_$][\w$]*)", source)
+    assert read, "app.js no longer reads protocol-2 messages as `frames` and `entry`"
+    unknown = {f"{var}.{name}" for var, name in read if name not in allowed[var]}
+    assert not unknown, unknown

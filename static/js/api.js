@@ -1,0 +1,61 @@
+// The REST calls the page makes (server/web/transformation.py): all SI, same origin.
+
+async function post( path, body ) {
+
+	const response = await fetch( path, {
+		method: 'POST',
+		headers: { 'content-type': 'application/json' },
+		body: JSON.stringify( body ),
+	} );
+	let answer = null;
+	try {
+
+		answer = await response.json();
+
+	} catch {
+
+		answer = null;
+
+	}
+	return { status: response.status, ok: response.ok, body: answer };
+
+}
+
+function robotPath( name, what ) {
+
+	return `/api/robots/${encodeURIComponent( name )}/${what}`;
+
+}
+
+/** Why a failed call failed, for people: the server's `detail` if it gave one. */
+function reason( result ) {
+
+	const detail = result.body && result.body.detail;
+	if ( typeof detail === 'string' ) return detail;
+	if ( Array.isArray( detail ) ) return detail.map( ( d ) => d.msg ).join( '; ' );
+	return `HTTP ${result.status}`;
+
+}
+
+/** TCP poses (and, with `links`, every link's pose) of joint rows (rad or m). */
+function forward( name, rows, links = false ) {
+
+	return post( robotPath( name, 'fk' ), { joints: rows, links } );
+
+}
+
+/** Every configuration reaching `tcp` [x, y, z, qx, qy, qz, qw] (m), best nearest `joints`. */
+function inverse( name, tcp, joints ) {
+
+	return post( robotPath( name, 'ik' ), { tcp, joints_ref: joints, all: true } );
+
+}
+
+/** Command a move to `joints` (rad or m); 202 when accepted. */
+function move( name, joints ) {
+
+	return post( robotPath( name, 'move' ), { joints } );
+
+}
+
+export { forward, inverse, move, reason };
