@@ -21,7 +21,11 @@ SPEED_SI = {"rad": (np.radians(60.0), np.radians(150.0)), "m": (0.25, 1.0)}
 FREE_RANGE_SI = {"rad": np.pi / 2, "m": 0.2}
 """Half the range drawn from for joints without limits."""
 USED_SHARE = 0.7
-"""Drawn targets stay within this share of each joint's range."""
+"""Drawn targets stay within this share of each joint's range ..."""
+MAX_HALF_RANGE_SI = {"rad": np.radians(120.0), "m": 0.5}
+"""... and this far from its middle: a joint that may turn twice round need not, to be seen."""
+FLOOR_M = -0.01
+"""Drawn targets keep every link origin above the robot's base plane (z, base frame)."""
 DRAWN_TARGETS = 5
 
 
@@ -69,20 +73,21 @@ def _node_range(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _drawn_targets(robot: Robot, lo: np.ndarray, hi: np.ndarray) -> list[list[float]]:
-    """Targets within ``USED_SHARE`` of the limits where the kinematics is defined (node units)."""
+    """Targets within the limits where the kinematics is defined, above the floor (node units)."""
     rng = np.random.default_rng(zlib.crc32(robot.name.encode()))
     free = np.array([FREE_RANGE_SI[j.si_unit] for j in robot.joints])
     lo_si = np.where(np.isfinite(robot.limits[:, 0]), robot.limits[:, 0], -free)
     hi_si = np.where(np.isfinite(robot.limits[:, 1]), robot.limits[:, 1], free)
     mid, half = 0.5 * (lo_si + hi_si), 0.5 * USED_SHARE * (hi_si - lo_si)
+    half = np.minimum(half, [MAX_HALF_RANGE_SI[j.si_unit] for j in robot.joints])
     home = np.clip(np.zeros(len(robot.joints)), lo_si, hi_si)
     targets = [home]
     for _ in range(50 * DRAWN_TARGETS):
         if len(targets) == DRAWN_TARGETS:
             break
         q = mid + half * rng.uniform(-1.0, 1.0, len(robot.joints))
-        _, _, ok = robot.poses(q)
-        if bool(ok):
+        links, _, ok = robot.poses(q)
+        if bool(ok) and links[:, 2, 3].min() >= FLOOR_M:
             targets.append(q)
     return [robot.from_si(q).tolist() for q in targets]
 
