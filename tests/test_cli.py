@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -61,3 +63,27 @@ def test_cell_sources_get_the_same_checks(tmp_path: Path) -> None:
         == f"{cell}: source[0].url: controller URL 'ftp://plc': scheme 'ftp' is not http or https"
     )
     assert lines[1].startswith(f"{cell}: source[0].ca: ") and "x.pem" in lines[1]
+
+
+def test_binding_beyond_loopback_without_a_token_warns(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    import uvicorn
+
+    from server.__main__ import main
+
+    monkeypatch.setattr(uvicorn.Server, "run", lambda self: None)  # configure, never listen
+    for host, token, warned in (("0.0.0.0", None, True), ("0.0.0.0", "s3cret", False),
+                                ("127.0.0.1", None, False)):  # fmt: skip
+        caplog.clear()
+        if token:
+            monkeypatch.setenv("LINKVIEW_VIEWER_TOKEN", token)
+        else:
+            monkeypatch.delenv("LINKVIEW_VIEWER_TOKEN", raising=False)
+        main(["--host", host, "--port", "8000"])
+        warning = [
+            r.getMessage() for r in caplog.records if "without a viewer token" in r.getMessage()
+        ]
+        assert bool(warning) == warned, (host, token, warning)
+        if warned:
+            assert "anyone who can reach port 8000 can watch" in warning[0]

@@ -135,13 +135,12 @@ class Acquisition:
         self.published.update(robot.name for _, robot in self._robots)
         t_sent = time.time()
         binary = encode_binary(frames, self._seq, sample.t_source, t_sent)
-        self._hub.publish(
-            f"frames:{self.health.name}", Message(binary, sample.t_source), protocol=2
-        )
+        name = self.health.name
+        self._hub.publish(f"frames2:{name}", Message(binary, sample.t_source), protocol=2)
         if self._hub.wants(1):  # protocol 1 costs a JSON encoding per robot: only when watched
-            for _, frame in frames:
-                message = Message(encode_json(frame, t_sent), sample.t_source)
-                self._hub.publish(f"frame:{frame.robot.name}", message, protocol=1)
+            # One frame message per robot, but sent together: one write per viewer and sample.
+            texts = tuple(encode_json(frame, t_sent) for _, frame in frames)
+            self._hub.publish(f"frames1:{name}", Message(texts, sample.t_source), protocol=1)
 
     def _frame(self, robot: Robot, sample: Sample) -> RobotFrame:
         read = [sample.values[n] for n in robot.nodes]

@@ -1,7 +1,7 @@
 """Fan-out of encoded messages to viewers: the newest message per key, never a backlog.
 
-Each viewer has one slot per key (``hello``, ``frames:<source>``,
-``frame:<robot>``, ``status:<source>``). Publishing overwrites the slot; a
+Each viewer has one slot per key (``hello:<protocol>``, ``cell``,
+``frames<protocol>:<source>``, ``status:<source>``). Publishing overwrites the slot; a
 viewer that reads slowly therefore skips stale frames instead of queueing
 them, and can never slow the others down. A message may be meant for one
 protocol version only (protocol 1's JSON frames, protocol 2's binary ones);
@@ -21,13 +21,16 @@ from collections.abc import Callable
 
 from .buckets import Buckets
 
+Payload = str | bytes | tuple[str, ...]
+"""One text or binary WebSocket message, or several text messages sent together."""
+
 
 class Message:
     """An encoded message, the same bytes for every viewer."""
 
     __slots__ = ("payload", "t_source", "wire")
 
-    def __init__(self, payload: str | bytes, t_source: float | None = None) -> None:
+    def __init__(self, payload: Payload, t_source: float | None = None) -> None:
         self.payload = payload
         self.t_source = t_source
         """When the data layer sampled what a frame message shows (unix s); None otherwise."""

@@ -16,8 +16,17 @@ from collections.abc import Callable
 from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
 from websockets.http11 import Request
 
+from ..stream.hub import Payload
+
 EXTENSION = "linkview.write_frame"
 _TEXT, _BINARY = 0x81, 0x82  # FIN + opcode
+
+
+def ws_frames(payload: Payload) -> bytes:
+    """Complete, unmasked WebSocket frames: one message, or each of a tuple's, back to back."""
+    if isinstance(payload, tuple):
+        return b"".join(map(ws_frame, payload))
+    return ws_frame(payload)
 
 
 def ws_frame(payload: str | bytes) -> bytes:

@@ -14,7 +14,8 @@ from ..protocol import PROTOCOLS
 from ..runtime import Runtime
 from ..stream import Message
 from ..stream.buckets import Buckets
-from .wire import EXTENSION, FrameWriter, ws_frame
+from ..stream.hub import Payload
+from .wire import EXTENSION, FrameWriter, ws_frames
 
 log = logging.getLogger(__name__)
 
@@ -54,10 +55,7 @@ async def viewer_socket(websocket: WebSocket) -> None:
                 for message in batch:
                     if message.t_source is not None:
                         runtime.hub.delay.observe(time.time() - message.t_source)
-                    if isinstance(message.payload, bytes):
-                        await websocket.send_bytes(message.payload)
-                    else:
-                        await websocket.send_text(message.payload)
+                    await _send(websocket, message.payload)
             viewer.busy = False
     except (WebSocketDisconnect, RuntimeError, ConnectionError):
         pass
@@ -66,6 +64,16 @@ async def viewer_socket(websocket: WebSocket) -> None:
     finally:
         receiver.cancel()
         runtime.hub.leave(viewer)
+
+
+async def _send(websocket: WebSocket, payload: Payload) -> None:
+    if isinstance(payload, bytes):
+        await websocket.send_bytes(payload)
+    elif isinstance(payload, str):
+        await websocket.send_text(payload)
+    else:
+        for text in payload:
+            await websocket.send_text(text)
 
 
 def _direct_sender(websocket: WebSocket, delay: Buckets) -> Callable[[Message], bool] | None:
@@ -78,7 +86,7 @@ def _direct_sender(websocket: WebSocket, delay: Buckets) -> Callable[[Message], 
     def send_now(message: Message) -> bool:
         wire = message.wire
         if wire is None:
-            wire = message.wire = ws_frame(message.payload)
+            wire = message.wire = ws_frames(message.payload)
         if not write(wire):
             return False
         if message.t_source is not None:

@@ -19,7 +19,6 @@ from playwright.sync_api import Browser, Page
 from tests.web._browser import (
     ROOT,
     Watched,
-    chromium,
     free_port,
     open_page,
     post_json,
@@ -39,12 +38,6 @@ def server_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     log = tmp_path_factory.mktemp("server") / "server.log"
     with server_process(free_port(), log) as url:
         yield url
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as launched:
-        yield launched
 
 
 @pytest.fixture(scope="module")

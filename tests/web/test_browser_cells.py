@@ -8,14 +8,11 @@ version is unusable), and the page rebuilds its robots.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
-import pytest
 from playwright.sync_api import Browser
 
 from tests.web._browser import (
-    chromium,
     free_port,
     open_page,
     post_json,
@@ -49,12 +46,6 @@ L4 = {l4_mm}
 L5 = 100.0
 limits = [[-150.0, 150.0], [-150.0, 150.0]]
 """
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as launched:
-        yield launched
 
 
 def test_robots_without_meshes_and_a_reloaded_cell(browser: Browser, tmp_path: Path) -> None:

@@ -6,16 +6,13 @@ at most twice (on, off), never flip between texts.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
-import pytest
 from playwright.sync_api import Browser, Page
 
 from tests.web._browser import (
     START_BANNER_LOG,
     banner_log,
-    chromium,
     free_port,
     mock_process,
     open_page,
@@ -25,12 +22,6 @@ from tests.web._browser import (
 )
 
 TIMEOUT_MS = 30_000
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Browser]:
-    with chromium() as launched:
-        yield launched
 
 
 def frames_applied(page: Page) -> int:

@@ -142,3 +142,24 @@ async def test_fk_with_links_gives_every_link_pose_and_the_tcp_as_the_stream_doe
     np.testing.assert_allclose(matrix_from_pose7(np.array(fk["links"])), links, atol=1e-12)
     np.testing.assert_allclose(np.array(fk["links"])[:, -1], np.array(fk["tcp"]), atol=1e-12)
     np.testing.assert_allclose(matrix_from_pose7(np.array(fk["tcp"])), tcp, atol=1e-12)
+
+
+async def test_a_urdf_robot_works_in_fk_and_ik_like_the_others() -> None:
+    from server.cell import load_cell
+    from server.paths import CELLS_DIR
+
+    cell = load_cell(CELLS_DIR / "examples" / "two_controllers.toml")
+    arm = cell.robots[0]
+    assert arm.family == "urdf"
+    q = np.radians([[10.0, -60.0, 70.0, -40.0, 80.0, 15.0], [-30.0, -100.0, 45.0, 20.0, 60.0, 0.0]])
+    async with running_server(Settings(), cell) as base, aiohttp.ClientSession() as http:
+        api = f"{base}/api/robots/arm6"
+        status, fk = await post(http, api + "/fk", {"joints": q.tolist()})
+        assert status == 200 and all(fk["ok"])
+        _, expected, _ = arm.poses(q)
+        np.testing.assert_allclose(matrix_from_pose7(np.array(fk["tcp"])), expected, atol=1e-12)
+        start = (q[0] + 0.2).tolist()
+        status, ik = await post(http, api + "/ik", {"tcp": fk["tcp"][0], "joints_ref": start})
+    assert status == 200 and ik["ok"], ik
+    _, again, _ = arm.poses(np.array(ik["best"]))
+    np.testing.assert_allclose(again, expected[0], atol=1e-8)
