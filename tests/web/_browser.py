@@ -76,12 +76,7 @@ def server_process(
             _wait_healthy(url, proc, log)
             yield url
         finally:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=10)
+            _stop(proc)
 
 
 @contextmanager
@@ -161,6 +156,15 @@ def banner_log(page: Page) -> list[str]:
     return log
 
 
+def _stop(proc: subprocess.Popen[bytes]) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(timeout=10)
+
+
 @contextmanager
 def mock_process(port: int, log: Path) -> Iterator[str]:
     """``python -m server.mock_ctrlx`` on ``port`` until the block ends; yields its URL."""
@@ -186,12 +190,7 @@ def mock_process(port: int, log: Path) -> Iterator[str]:
                     time.sleep(0.1)
             yield url
         finally:
-            proc.terminate()
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=10)
+            _stop(proc)
 
 
 def set_faults(mock_url: str, **faults: object) -> None:
