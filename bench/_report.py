@@ -32,6 +32,13 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
+def publish(script: str, title: str, body: str) -> None:
+    """Print ``body`` and write it as ``script``'s section of docs/benchmarks.md."""
+    print()
+    print(body)
+    write_section(script, title, body)
+
+
 def write_section(script: str, title: str, body: str) -> None:
     """Replace (or append) the section written by ``script`` in docs/benchmarks.md."""
     stamp = dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M UTC")

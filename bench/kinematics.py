@@ -30,7 +30,7 @@ import roboticstoolbox as rtb
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from _report import markdown_table, write_section  # noqa: E402
+from _report import markdown_table, publish  # noqa: E402
 
 from server.kinematics import DHChain, Type12, iiwa7  # noqa: E402
 
@@ -155,10 +155,7 @@ def main() -> None:
         "roboticstoolbox is measured side by side."
     )
     table = markdown_table(header, rows)
-    print(table)
-    print()
-    print(notes)
-    write_section("bench/kinematics.py", "Kinematics", f"{table}\n\n{notes}\n")
+    publish("bench/kinematics.py", "Kinematics", f"{table}\n\n{notes}\n")
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ from playwright.sync_api import Page, sync_playwright
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
-from _report import markdown_table, write_section  # noqa: E402
+from _report import markdown_table, publish  # noqa: E402
 
 from tests.web._browser import (  # noqa: E402
     CHROMIUM,
@@ -186,9 +186,7 @@ def main() -> None:
         f"{WARM_UP_MS / 1000:g} s warm-up. Load average before: {load_before}; after: "
         f"{load_after}.\n\n{table}\n\n{auto}\n"
     )
-    print()
-    print(body)
-    write_section("bench/page_fps.py", "Page frame rate with software rendering", body)
+    publish("bench/page_fps.py", "Page frame rate with software rendering", body)
 
 
 if __name__ == "__main__":

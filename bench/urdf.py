@@ -40,7 +40,7 @@ from lxml import etree
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(ROOT))
-from _report import markdown_table, write_section  # noqa: E402
+from _report import markdown_table, publish  # noqa: E402
 
 from server.urdf import link_meshes, load_urdf  # noqa: E402
 
@@ -211,10 +211,7 @@ def main() -> None:
         "and trimesh), the embedded mock and the first samples to the cell start."
     )
     table = markdown_table(header, rows)
-    print(table)
-    print()
-    print(notes)
-    write_section("bench/urdf.py", "URDF robots", f"{table}\n\n{notes}\n")
+    publish("bench/urdf.py", "URDF robots", f"{table}\n\n{notes}\n")
 
 
 if __name__ == "__main__":

@@ -12,12 +12,13 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def run_server(*args: str) -> subprocess.CompletedProcess[str]:
+    """``python -m server ARGS`` from the repository root, its output captured."""
     return subprocess.run(
         [sys.executable, "-m", "server", *args],
         cwd=ROOT,
         text=True,
         capture_output=True,
-        timeout=30,
+        timeout=60,
     )
 
 

@@ -11,7 +11,6 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -70,8 +69,6 @@ class Acquisition:
         self.set_robots(robots, indices)
         self._status_sent = 0.0
         self._state_sent = ""
-        self.published: Counter[str] = Counter()
-        """Frames published per robot."""
         self.failures = 0
         """Times the source failed as a whole."""
         self.kinematics_time = Buckets(KINEMATICS_BUCKETS_S)
@@ -132,7 +129,6 @@ class Acquisition:
         start = time.perf_counter()
         frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
         self.kinematics_time.observe(time.perf_counter() - start)
-        self.published.update(robot.name for _, robot in self._robots)
         t_sent = time.time()
         binary = encode_binary(frames, self._seq, sample.t_source, t_sent)
         name = self.health.name

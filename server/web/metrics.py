@@ -60,8 +60,8 @@ class RuntimeCollector(Collector):
         )
         for name, source in runtime.sources.items():
             acquisition = source.acquisition
-            for robot, count in acquisition.published.items():
-                published.add_metric([robot], count)
+            for robot, health in source.health.robots.items():
+                published.add_metric([robot], health.frames)
             requests.add_metric([name], source.client.traffic.requests)
             errors.add_metric([name], acquisition.failures)
             logins.add_metric([name], source.client.tokens.logins)

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
@@ -12,6 +10,7 @@ import numpy as np
 import pytest
 
 from server.cell import CellError, load_cell
+from tests.test_cli import run_server
 
 ROOT = Path(__file__).resolve().parents[2]
 URDF_DIR = ROOT / "cells" / "examples" / "arm6" / "arm6_description"
@@ -185,18 +184,8 @@ def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
     assert message.startswith("robot[0].joints[3].joint: no movable joint 'knee_joint'")
 
 
-def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "server", *args],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
-
-
 def test_check_prints_one_line_per_robot_and_exits_0() -> None:
-    result = run_cli("check", "cells/demo.toml", "cells/examples/two_controllers.toml")
+    result = run_server("check", "cells/demo.toml", "cells/examples/two_controllers.toml")
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == [
         "cells/demo.toml: kin12: type12, 2 joints, source demo, 4 meshes",
@@ -209,8 +198,8 @@ def test_check_prints_one_line_per_robot_and_exits_0() -> None:
 
 def test_check_and_the_server_refuse_a_bad_cell_with_the_same_message(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "nope"'))
-    checked = run_cli("check", str(path))
-    started = run_cli("--cell", str(path), "--port", "0")
+    checked = run_server("check", str(path))
+    started = run_server("--cell", str(path), "--port", "0")
     expected = f"{path}: robot[0].source: no source named 'nope' (sources: line1)"
     assert checked.returncode == 1 and checked.stderr.strip() == expected
     assert started.returncode == 2 and expected in started.stderr

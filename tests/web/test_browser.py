@@ -215,7 +215,10 @@ def test_view_presets_focus_and_home(viewer: Watched) -> None:
     page.keyboard.press("Home")
     x, y, z = _view_direction(page)
     assert x > 0.3 and y < -0.5 and z > 0.3, (x, y, z)  # back to the iso view of everything
-    labels = page.evaluate("[...document.querySelectorAll('.label')].map(l => !l.hidden)")
+    # Labels follow the camera on the next rendered frame: wait for it, then check them all.
+    shown = "[...document.querySelectorAll('.label')].map(l => !l.hidden)"
+    page.wait_for_function(f"() => {shown}.every(Boolean)", timeout=TIMEOUT_MS)
+    labels = page.evaluate(shown)
     assert labels == [True, True, True]  # every robot is on screen
 
 

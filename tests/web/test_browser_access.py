@@ -65,8 +65,8 @@ def test_a_token_link_opens_the_page_over_protocol_2_and_other_origins_read_noth
     env = {"LINKVIEW_VIEWER_TOKEN": TOKEN}
     with server_process(free_port(), tmp_path / "server.log", env=env) as url:
         context = browser.new_context(viewport={"width": 1280, "height": 800})
+        assert context.request.get(f"{url}/").status == 401  # no token yet
         page = context.new_page()
-        assert page.goto(f"{url}/").status == 401  # type: ignore[union-attr]
 
         watched = watch(page)
         open_page(page, f"{url}/?token={TOKEN}&quality=5", TIMEOUT_MS)
