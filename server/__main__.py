@@ -11,7 +11,7 @@ from pathlib import Path
 import uvicorn
 from pydantic import ValidationError
 
-from .cell import CellError, load_cell
+from .cell import CellError, load_cell, plural
 from .config import Settings
 from .logs import setup_logging
 from .runtime.startup import configured_cell
@@ -106,11 +106,11 @@ def check(argv: list[str]) -> int:
             status = 1
             continue
         for robot in cell.robots:
-            meshes = sum(m is not None for m in robot.meshes)
-            print(
-                f"{name}: {robot.name}: {robot.family}, {len(robot.joints)} joints, "
-                f"source {robot.source}, {meshes} meshes"
-            )
+            count = sum(m is not None for m in robot.meshes)
+            meshes = plural(count, "mesh", "meshes") if count else "no meshes"
+            joints = plural(len(robot.joints), "joint")
+            where = f"source {robot.source}"
+            print(f"{name}: {robot.name}: {robot.family}, {joints}, {where}, {meshes}")
     return status
 
 

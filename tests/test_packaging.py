@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+import sysconfig
 import time
 import urllib.request
 from pathlib import Path
@@ -12,6 +14,20 @@ from pathlib import Path
 from tests.conftest import free_port
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def lend_dependencies(venv: Path) -> None:
+    """Let ``venv`` import the packages of the environment running the tests, after its own.
+
+    ``--system-site-packages`` would lend the base interpreter's packages, which
+    are not ours when pytest runs in a venv. The path is added after the wheel is
+    installed, so pip never sees this environment's (editable) linkview. Only
+    directories are added, never the checkout: an editable install's finder is
+    a ``.pth`` hook of the lending environment, which a plain path does not run.
+    """
+    lent = dict.fromkeys([sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]])
+    (site_packages,) = venv.glob("lib/python*/site-packages")
+    (site_packages / "_lent_dependencies.pth").write_text("".join(f"{p}\n" for p in lent))
 
 
 def test_wheel_serves_the_page_and_a_mesh(tmp_path: Path) -> None:
@@ -25,15 +41,16 @@ def test_wheel_serves_the_page_and_a_mesh(tmp_path: Path) -> None:
     )
     (wheel,) = dist.glob("linkview-*.whl")
     venv = tmp_path / "venv"
-    # The venv sees the installed dependencies but not the checkout: `server` must come
-    # from the wheel, static files and meshes included.
-    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], check=True)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}  # no checkout on the path
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
     python = str(venv / "bin" / "python")
     pip = [python, "-m", "pip", "install", "-q", "--no-deps", str(wheel)]
-    subprocess.run(pip, check=True, capture_output=True, timeout=300)
+    subprocess.run(pip, env=env, check=True, capture_output=True, timeout=300)
+    lend_dependencies(venv)
     where = subprocess.run(
-        [python, "-c", "import server; print(server.__file__)"],
+        [python, "-c", "import server, uvicorn; print(server.__file__)"],
         cwd=tmp_path,
+        env=env,
         check=True,
         capture_output=True,
         text=True,
@@ -43,7 +60,11 @@ def test_wheel_serves_the_page_and_a_mesh(tmp_path: Path) -> None:
     port = free_port()
     log = (tmp_path / "server.log").open("wb")
     proc = subprocess.Popen(
-        [python, "-m", "server", "--port", str(port)], cwd=tmp_path, stdout=log, stderr=log
+        [python, "-m", "server", "--port", str(port)],
+        cwd=tmp_path,
+        env=env,
+        stdout=log,
+        stderr=log,
     )
     base = f"http://127.0.0.1:{port}"
     try:

@@ -5,7 +5,8 @@ wrong units, ...), then checks what a schema cannot: names that must be
 unique, sources that must exist, joint counts against the kinematics, files
 (URDF, meshes, CA) that must be there, and password variables that must be
 set. All problems are gathered into one CellError, one line each:
-``<file>: <key path>: <reason>``, e.g. ``robot[2].joints[3].unit``.
+``<file>: <key path>: <reason>``, e.g. ``robot[2] "arm".joints[3].unit``; a
+mistake does not hide the others (``server.cell._validate``).
 """
 
 from __future__ import annotations
@@ -15,13 +16,12 @@ import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
-
-from pydantic import ValidationError
+from typing import Literal
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
 from . import schema
+from ._validate import Validated, plural, validate
 from .families import Built, SpecError, Where, build, pose_matrix
 from .robot import Joint, Robot
 
@@ -93,86 +93,75 @@ def load_cell(
         raise CellError(path, [("(file)", f"cannot read it: {exc}")]) from None
     except tomllib.TOMLDecodeError as exc:
         raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
-    try:
-        spec = schema.Cell.model_validate(raw)
-    except ValidationError as exc:
-        raise CellError(path, [_pydantic_problem(e) for e in exc.errors()]) from None
     where = Where(path.resolve().parent, cache_dir or default_cache_dir())
-    return _Builder(path, spec, env, where).cell()
-
-
-def _pydantic_problem(error: Any) -> tuple[str, str]:
-    loc = [part for part in error["loc"] if part not in schema.KINEMATICS_TYPES]
-    key = ""
-    for part in loc:
-        key += f"[{part}]" if isinstance(part, int) else (f".{part}" if key else str(part))
-    kind, msg = error["type"], error["msg"]
-    if kind == "extra_forbidden":
-        msg = "unknown key"
-    elif kind == "missing":
-        msg = "required key is missing"
-    elif kind == "union_tag_invalid":
-        msg = f"type must be one of {', '.join(schema.KINEMATICS_TYPES)}"
-    elif kind == "literal_error":
-        msg = f"{msg[len('Input should be ') :]}, not {error['input']!r}"
-        msg = f"must be {msg}"
-    elif kind == "union_tag_not_found":
-        msg = f"needs a 'type' ({', '.join(schema.KINEMATICS_TYPES)})"
-    return key or "(top level)", msg
+    return _Builder(path, validate(raw), env, where).cell()
 
 
 class _Builder:
     """Checks across keys and builds the SI objects, collecting every problem."""
 
     def __init__(
-        self, path: Path, spec: schema.Cell, env: Mapping[str, str], where: Where
+        self, path: Path, validated: Validated, env: Mapping[str, str], where: Where
     ) -> None:
         self.path = path
         self.where = where
-        self.spec = spec
+        self.valid = validated
         self.env = env
-        self.problems: list[tuple[str, str]] = []
+        self.problems: list[tuple[str, str]] = list(validated.problems)
 
     def cell(self) -> Cell:
-        self._unique("source", [s.name for s in self.spec.source])
-        self._unique("robot", [r.name for r in self.spec.robot])
-        sources = [self._source(f"source[{i}]", s) for i, s in enumerate(self.spec.source)]
-        known = {s.name for s in self.spec.source}
+        names = self.valid.names
+        self._unique("source", names["source"])
+        self._unique("robot", names["robot"])
+        sources = [self._source(i, s) for i, s in self.valid.sources.items()]
+        known = set(names["source"].values())
         robots = []
-        for i, robot in enumerate(self.spec.robot):
+        for i, robot in self.valid.robots.items():
             if robot.source not in known:
-                self.problems.append(
+                self._report(
                     (
-                        f"robot[{i}].source",
+                        self._key("robot", i, ".source"),
                         f"no source named {robot.source!r} (sources: {', '.join(sorted(known))})",
                     )
                 )
-            built = self._robot(f"robot[{i}]", robot)
+            built = self._robot(i, robot)
             if built is not None:
                 robots.append(built)
         if self.problems:
-            raise CellError(self.path, self.problems)
-        return Cell(self.path, tuple(s for s in sources if s), tuple(robots), self.spec)
+            raise CellError(self.path, sorted(self.problems, key=_file_order))
+        assert self.valid.cell is not None  # no problems: the file passed the schema whole
+        return Cell(self.path, tuple(s for s in sources if s), tuple(robots), self.valid.cell)
 
-    def _unique(self, kind: str, names: list[str]) -> None:
+    def _key(self, section: str, index: int, rest: str = "") -> str:
+        return self.valid.label(section, index) + rest
+
+    def _report(self, problem: tuple[str, str]) -> None:
+        if not self.valid.echoes(problem[0]):  # a key the schema refused: its default stood in
+            self.problems.append(problem)
+
+    def _unique(self, kind: str, names: dict[int, str]) -> None:
         first: dict[str, int] = {}
-        for i, name in enumerate(names):
+        for i, name in names.items():
             if name in first:
-                self.problems.append(
-                    (f"{kind}[{i}].name", f"duplicate name {name!r} (also {kind}[{first[name]}])")
+                self._report(
+                    (
+                        self._key(kind, i, ".name"),
+                        f"duplicate name {name!r} (also {kind}[{first[name]}])",
+                    )
                 )
             first.setdefault(name, i)
 
-    def _source(self, key: str, spec: schema.Source) -> Source | None:
+    def _source(self, index: int, spec: schema.Source) -> Source | None:
+        key = self._key("source", index)
         problems = len(self.problems)
         password = "boschrexroth"
         if spec.url is not None:
             if spec.password_env is None:
-                self.problems.append(
+                self._report(
                     (f"{key}.password_env", "required with a url (the password comes from it)")
                 )
             elif spec.password_env not in self.env:
-                self.problems.append(
+                self._report(
                     (
                         f"{key}.password_env",
                         f"environment variable {spec.password_env} is not set",
@@ -184,13 +173,13 @@ class _Builder:
             try:
                 check_base_url(spec.url)
             except ValueError as exc:
-                self.problems.append((f"{key}.url", str(exc)))
+                self._report((f"{key}.url", str(exc)))
         ca = None if spec.ca is None else self.where.resolve(spec.ca)
         if ca is not None:
             try:
                 client_ssl(ca)
             except ValueError as exc:
-                self.problems.append((f"{key}.ca", str(exc)))
+                self._report((f"{key}.ca", str(exc)))
         if len(self.problems) > problems:
             return None
         return Source(
@@ -206,11 +195,12 @@ class _Builder:
             allow_commands=spec.allow_commands,
         )
 
-    def _robot(self, key: str, spec: schema.Robot) -> Robot | None:
+    def _robot(self, index: int, spec: schema.Robot) -> Robot | None:
+        key = self._key("robot", index)
         try:
             built = build(spec.kinematics, self.where)
         except SpecError as exc:
-            self.problems.append((f"{key}.kinematics.{exc.key}", str(exc)))
+            self._report((f"{key}.kinematics.{exc.key}", str(exc)))
             return None
         joints = self._joints(key, spec, built)
         meshes = self._meshes(key, spec, built)
@@ -237,10 +227,11 @@ class _Builder:
         entries = spec.joints
         if len(entries) != n:
             names = ", ".join(built.joint_names)
-            self.problems.append(
+            self._report(
                 (
                     f"{key}.joints",
-                    f"the {built.family} kinematics has {n} joints ({names}); {len(entries)} given",
+                    f"the {built.family} kinematics has {plural(n, 'joint')} ({names}); "
+                    f"{len(entries)} given",
                 )
             )
             return None
@@ -256,7 +247,7 @@ class _Builder:
             linear = built.linear[slot]
             if linear != (entry.unit in ("mm", "m")):
                 kind, units = ("linear", "mm or m") if linear else ("rotary", "deg or rad")
-                self.problems.append(
+                self._report(
                     (
                         f"{key}.joints[{k}].unit",
                         f"joint {built.joint_names[slot]!r} is {kind}: unit must be {units}, "
@@ -265,7 +256,7 @@ class _Builder:
                 )
                 ok = False
             if entry.scale == 0.0:
-                self.problems.append((f"{key}.joints[{k}].scale", "must not be 0"))
+                self._report((f"{key}.joints[{k}].scale", "must not be 0"))
                 ok = False
             joints[slot] = Joint(
                 name=built.joint_names[slot],
@@ -283,12 +274,12 @@ class _Builder:
         order: list[int] = []
         for k, entry in enumerate(entries):
             if entry.joint is None:
-                self.problems.append(
+                self._report(
                     (f"{key}.joints[{k}].joint", "name every joint or none of them")
                 )
                 return None
             if entry.joint not in names:
-                self.problems.append(
+                self._report(
                     (
                         f"{key}.joints[{k}].joint",
                         f"no movable joint {entry.joint!r} (joints: {', '.join(names)})",
@@ -296,7 +287,7 @@ class _Builder:
                 )
                 return None
             if names.index(entry.joint) in order:
-                self.problems.append((f"{key}.joints[{k}].joint", f"{entry.joint!r} given twice"))
+                self._report((f"{key}.joints[{k}].joint", f"{entry.joint!r} given twice"))
                 return None
             order.append(names.index(entry.joint))
         return order
@@ -305,20 +296,21 @@ class _Builder:
         if spec.mesh_dir is None:
             return built.meshes or (None,) * len(built.link_names)
         if built.meshes:
-            self.problems.append(
+            self._report(
                 (f"{key}.mesh_dir", "URDF robots take their meshes from the URDF's visuals")
             )
             return None
         folder = self.where.resolve(spec.mesh_dir)
         if not folder.is_dir():
-            self.problems.append((f"{key}.mesh_dir", f"no such folder: {folder}"))
+            self._report((f"{key}.mesh_dir", f"no such folder: {folder}"))
             return None
         missing = [n for n in built.link_names if not (folder / f"{n}.glb").is_file()]
         if missing:
-            self.problems.append(
+            self._report(
                 (
                     f"{key}.mesh_dir",
-                    f"missing mesh for link(s) {', '.join(missing)}: expected "
+                    f"missing mesh for {'link' if len(missing) == 1 else 'links'} "
+                    f"{', '.join(missing)}: expected "
                     + ", ".join(str(folder / f"{n}.glb") for n in missing),
                 )
             )
@@ -333,8 +325,17 @@ class _Builder:
         n = len(built.joint_names)
         for k, target in enumerate(spec.demo_targets):
             if len(target) != n:
-                self.problems.append(
+                self._report(
                     (f"{key}.demo_targets[{k}]", f"needs {n} values, one per joint")
                 )
                 return None
         return tuple(tuple(t) for t in spec.demo_targets)
+
+
+def _file_order(problem: tuple[str, str]) -> tuple[int, int]:
+    """Problems of the same source or robot together, in the order of the file."""
+    key = problem[0]
+    for rank, section in enumerate(("source", "robot"), start=1):
+        if key.startswith(f"{section}["):
+            return rank, int(key[len(section) + 1 : key.index("]")])
+    return 0, 0

@@ -6,8 +6,9 @@ import asyncio
 import contextlib
 import logging
 import ssl
-from collections.abc import Iterator
+from collections.abc import AsyncIterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import aiohttp
@@ -18,6 +19,7 @@ from .connection import connection_error
 from .paths import encode_node_path
 from .problem import DataLayerError, ProblemError, Unsupported, problem_for_status
 from .redact import Redactor
+from .tls import ca_context, peer_certificate
 from .values import BulkRead, bulk_values, number_from_data, numbers_from_data
 
 log = logging.getLogger(__name__)
@@ -64,6 +66,11 @@ class DataLayerClient:
     revokes the token on ``close()``. ``api="v1"`` speaks the older firmware's
     paths, which offer neither bulk reads nor subscriptions. Whatever the
     device answers, no password or token text reaches an error or a log line.
+
+    ``ca_file`` (instead of ``ssl_context``) trusts the certificates in that
+    PEM file; it is read before the first request and again after every failed
+    connection, so a device certificate renewed in the file needs no restart, and
+    a file that cannot serve is an error of this source, not of the server.
     """
 
     def __init__(
@@ -73,6 +80,7 @@ class DataLayerClient:
         *,
         api: ApiVersion = "v2",
         ssl_context: ssl.SSLContext | bool = True,
+        ca_file: Path | None = None,
         timeout_s: float = 5.0,
     ) -> None:
         self.base_url = base_url.rstrip("/")
@@ -80,7 +88,12 @@ class DataLayerClient:
         self.paths: ApiPaths = API_PATHS[api]
         self.timeout_s = timeout_s
         self._credentials = credentials
+        self.ca_file = ca_file
         self._ssl = ssl_context
+        self._reread_ca = ca_file is not None
+        """Read ``ca_file`` before the next request (first, and after a failed connection)."""
+        self._verified = False
+        """True once the device passed verification: a later mismatch means it changed."""
         self._timeout = aiohttp.ClientTimeout(total=timeout_s)
         self._session: aiohttp.ClientSession | None = None
         self.redact = Redactor(credentials.password)
@@ -211,7 +224,7 @@ class DataLayerClient:
     ) -> Answer:
         headers = {"Authorization": f"Bearer {token}"} if token else {}
         self.traffic.requests += 1
-        with self._transport_errors(method, path):
+        async with self._transport_errors(method, path):
             async with self._http().request(
                 method,
                 self.base_url + path,
@@ -224,17 +237,53 @@ class DataLayerClient:
                 self.traffic.bytes_in += len(raw)
                 return _answer(resp, raw)
 
-    @contextlib.contextmanager
-    def _transport_errors(self, method: str, path: str) -> Iterator[None]:
+    @contextlib.asynccontextmanager
+    async def _transport_errors(self, method: str, path: str) -> AsyncIterator[None]:
         """Turn timeouts and connection failures into DataLayerError naming the device."""
+        self._fresh_ca()
         try:
             yield
+            self._verified = True
         except TimeoutError:
+            self._reread_ca = True
             raise DataLayerError(
                 f"{method} {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
             ) from None
+        except aiohttp.ClientConnectorCertificateError as exc:
+            self._reread_ca = True
+            raise await self._certificate_error(exc) from None
         except aiohttp.ClientError as exc:
+            self._reread_ca = True
             raise connection_error(self.base_url, exc) from None
+
+    def _fresh_ca(self) -> None:
+        """Read the CA file again after a failed connection (the device may have a new one)."""
+        if not self._reread_ca or self.ca_file is None:
+            return
+        try:
+            self._ssl = ca_context(self.ca_file)
+        except ValueError as exc:
+            raise DataLayerError(str(exc)) from None
+        self._reread_ca = False
+
+    async def _certificate_error(
+        self, exc: aiohttp.ClientConnectorCertificateError
+    ) -> DataLayerError:
+        """Why the device's certificate failed, naming the certificate it presents."""
+        reason = getattr(exc.certificate_error, "verify_message", None) or exc.certificate_error
+        peer = await peer_certificate(self.base_url, self.timeout_s)
+        presents = f"it presents {peer}" if peer else "its certificate could not be fetched"
+        if self.ca_file is None:
+            return DataLayerError(
+                f"cannot verify the TLS certificate of {self.base_url} ({reason}); {presents}; "
+                "pass the device's certificate with --ctrlx-ca FILE"
+            )
+        match = "no longer matches" if self._verified else "does not match"
+        return DataLayerError(
+            f"the TLS certificate of {self.base_url} {match} the CA file {self.ca_file} "
+            f"({reason}); {presents}; if that is the device's new certificate, put it in "
+            "that file (read again at every reconnect)"
+        )
 
     async def open_stream(
         self, path: str, *, params: dict[str, str] | None = None
@@ -256,7 +305,7 @@ class DataLayerClient:
         token = await self.tokens.current()
         for attempt in (1, 2):
             self.traffic.requests += 1
-            with self._transport_errors("GET", path):
+            async with self._transport_errors("GET", path):
                 async with asyncio.timeout(self.timeout_s):
                     resp = await self._http().get(
                         self.base_url + path,
@@ -273,7 +322,7 @@ class DataLayerClient:
                 self.tokens.accepted()
                 return resp
             try:
-                with self._transport_errors("GET", path):
+                async with self._transport_errors("GET", path):
                     async with asyncio.timeout(self.timeout_s):
                         raw = await read_bounded(resp, f"GET {path}")
             except DataLayerError:

@@ -5,7 +5,7 @@ from .faults import Faults
 from .machine import UNITS, AxisGroup, Machine, SimAxis, demo_groups
 from .nodes import NodeTree
 from .state import STATE_KEY, MockState
-from .tls import MockCertificate, make_certificate
+from .tls import MockCertificate, certificate_in, make_certificate
 
 __all__ = [
     "STATE_KEY",
@@ -18,6 +18,7 @@ __all__ = [
     "NodeTree",
     "SimAxis",
     "build_app",
+    "certificate_in",
     "demo_groups",
     "make_certificate",
     "serve",

@@ -9,16 +9,17 @@ from pathlib import Path
 
 from ..logs import setup_logging
 from .app import build_app, serve
-from .tls import make_certificate
+from .tls import certificate_in
 
 
 async def _run(args: argparse.Namespace) -> None:
     context, note = None, ""
     with tempfile.TemporaryDirectory(prefix="mock-ctrlx-") as tmp:
         if args.tls:
-            cert = make_certificate(Path(args.tls_dir) if args.tls_dir else Path(tmp))
+            cert, made = certificate_in(Path(args.tls_dir) if args.tls_dir else Path(tmp))
             context = cert.server_context()
-            note = f" (trust it with --ctrlx-ca {cert.ca_file})"
+            kept = "a new certificate" if made else "the certificate kept"
+            note = f" with {kept} in {cert.ca_file.parent} (trust it: --ctrlx-ca {cert.ca_file})"
         app = build_app(
             token_lifetime_s=args.token_lifetime,
             changes_only=args.changes_only,
@@ -47,10 +48,13 @@ def main() -> None:
         help="seconds a created subscription outlives its last event stream",
     )
     parser.add_argument(
-        "--tls", action="store_true", help="serve HTTPS with a self-signed certificate made now"
+        "--tls", action="store_true", help="serve HTTPS with a self-signed certificate"
     )
     parser.add_argument(
-        "--tls-dir", metavar="DIR", help="where to write the certificate (default: a temp dir)"
+        "--tls-dir",
+        metavar="DIR",
+        help="keep the certificate here and reuse it at the next start, as a device does "
+        "(default: a new one in a temporary folder)",
     )
     parser.add_argument(
         "--changes-only",

@@ -82,7 +82,8 @@ async def start_source(
         url,
         Credentials(config.user, config.password),
         api=config.api,
-        ssl_context=client_ssl(config.ca, config.insecure),
+        ssl_context=client_ssl(insecure=config.insecure),
+        ca_file=None if config.insecure else config.ca,
         timeout_s=defaults.timeout_s,
     )
     client.warning = check_base_url(url)  # plain http to another machine: credentials in clear

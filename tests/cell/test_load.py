@@ -43,7 +43,7 @@ def test_an_unknown_key_is_named(tmp_path: Path) -> None:
     path = write(
         tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line1"\ncolor = 1')
     )
-    assert problems(path) == ["robot[0].color: unknown key"]
+    assert problems(path) == ['robot[0] "kin".color: unknown key']
 
 
 def test_a_wrong_unit_is_named_with_the_units_allowed(tmp_path: Path) -> None:
@@ -51,35 +51,38 @@ def test_a_wrong_unit_is_named_with_the_units_allowed(tmp_path: Path) -> None:
         tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "grad" }')
     )
     assert problems(path) == [
-        "robot[0].joints[1].unit: must be 'deg', 'rad', 'mm' or 'm', not 'grad'"
+        "robot[0] \"kin\".joints[1].unit: must be 'deg', 'rad', 'mm' or 'm', not 'grad' "
+        "(did you mean 'rad'?)"
     ]
 
 
 def test_a_linear_unit_on_a_rotary_joint_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "mm" }'))
     assert problems(path) == [
-        "robot[0].joints[1].unit: joint 'a1' is rotary: unit must be deg or rad, not 'mm'"
+        "robot[0] \"kin\".joints[1].unit: joint 'a1' is rotary: unit must be deg or rad, "
+        "not 'mm'"
     ]
 
 
 def test_a_joint_count_that_does_not_match_the_kinematics(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace(', { node = "b" }', ""))
     assert problems(path) == [
-        "robot[0].joints: the type12 kinematics has 2 joints (a0, a1); 1 given"
+        'robot[0] "kin".joints: the type12 kinematics has 2 joints (a0, a1); 1 given'
     ]
 
 
 def test_an_unknown_kinematics_type(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace("type12", "scara"))
     assert problems(path) == [
-        "robot[0].kinematics: type must be one of type12, dh, axis_group, urdf"
+        'robot[0] "kin".kinematics.type: must be one of type12, dh, axis_group, urdf, '
+        "not 'scara'"
     ]
 
 
 def test_a_missing_urdf(tmp_path: Path) -> None:
     robot = TYPE12.replace('{ type = "type12" }', '{ type = "urdf", file = "nope.urdf" }')
     (message,) = problems(write(tmp_path, SOURCE + robot))
-    assert message.startswith("robot[0].kinematics.file: ") and "nope.urdf" in message
+    assert message.startswith('robot[0] "kin".kinematics.file: ') and "nope.urdf" in message
     assert "not found" in message or "no such file" in message.lower()
 
 
@@ -87,7 +90,7 @@ def test_a_malformed_urdf(tmp_path: Path) -> None:
     (tmp_path / "bad.urdf").write_text("<robot name='x'><link name='a'></robot>")
     robot = TYPE12.replace('{ type = "type12" }', '{ type = "urdf", file = "bad.urdf" }')
     (message,) = problems(write(tmp_path, SOURCE + robot))
-    assert message.startswith("robot[0].kinematics.file: ") and "bad.urdf" in message
+    assert message.startswith('robot[0] "kin".kinematics.file: ') and "bad.urdf" in message
 
 
 def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
@@ -104,7 +107,7 @@ def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
     joints = [{nodes}]
     """
     (message,) = problems(write(tmp_path, SOURCE + textwrap.dedent(robot)))
-    assert message.startswith("robot[0].kinematics.file: ") and "gone.stl" in message
+    assert message.startswith('robot[0] "arm".kinematics.file: ') and "gone.stl" in message
 
 
 def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
@@ -113,36 +116,94 @@ def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
         (tmp_path / "meshes" / f"{link}.glb").write_bytes(b"glTF")
     path = write(tmp_path, SOURCE + TYPE12 + 'mesh_dir = "meshes"\n')
     (message,) = problems(path)
-    assert message.startswith("robot[0].mesh_dir: missing mesh for link(s) L2")
+    assert message.startswith('robot[0] "kin".mesh_dir: missing mesh for link L2: expected ')
 
 
 def test_an_unknown_source(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line9"'))
-    assert problems(path) == ["robot[0].source: no source named 'line9' (sources: line1)"]
+    assert problems(path) == [
+        'robot[0] "kin".source: no source named \'line9\' (sources: line1)'
+    ]
 
 
 def test_duplicate_names(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + SOURCE + TYPE12 + TYPE12)
     assert problems(path) == [
-        "source[1].name: duplicate name 'line1' (also source[0])",
-        "robot[1].name: duplicate name 'kin' (also robot[0])",
+        'source[1] "line1".name: duplicate name \'line1\' (also source[0])',
+        'robot[1] "kin".name: duplicate name \'kin\' (also robot[0])',
     ]
 
 
 def test_a_password_variable_that_is_not_set(tmp_path: Path) -> None:
     source = '[[source]]\nname = "line1"\nurl = "https://192.0.2.1"\npassword_env = "LINE1_PW"\n'
     path = write(tmp_path, source + TYPE12)
-    assert problems(path) == ["source[0].password_env: environment variable LINE1_PW is not set"]
+    assert problems(path) == [
+        'source[0] "line1".password_env: environment variable LINE1_PW is not set'
+    ]
     cell = load_cell(path, env={"LINE1_PW": "pw"}, cache_dir=tmp_path)
     assert cell.sources[0].password == "pw" and "pw" not in repr(cell.sources[0])
 
 
 def test_every_problem_is_reported_at_once(tmp_path: Path) -> None:
-    source = '[[source]]\nname = "line1"\nurl = "https://192.0.2.1"\npassword_env = "PW"\n'
-    robots = TYPE12.replace('source = "line1"', 'source = "x"') + TYPE12.replace(
-        ', { node = "b" }', ""
-    ).replace('name = "kin"', 'name = "other"')
-    assert len(problems(write(tmp_path, source + robots))) == 3
+    # Four different mistakes: one of a source, one of a schema key, one found by checking
+    # the joints against the kinematics, one of a robot that the schema refuses outright.
+    cell = """
+    [[source]]
+    name = "line1"
+    url = "https://192.0.2.1"
+    password_env = "PW"
+
+    [[robot]]
+    name = "kin"
+    source = "line1"
+    kinematics = { type = "DH", d = [0.0], a = [100.0], alpha_deg = [0.0] }
+    joints = [ { node = "a" } ]
+
+    [[robot]]
+    name = "arm"
+    source = "line1"
+    kinematics = { type = "type12" }
+    joints = [ { node = "a" }, { node = "b" }, { node = "c" }, { node = "d", unit = "degree" } ]
+    """
+    assert problems(write(tmp_path, cell)) == [
+        'source[0] "line1".password_env: environment variable PW is not set',
+        'robot[0] "kin".kinematics.type: must be one of type12, dh, axis_group, urdf, '
+        "not 'DH' (did you mean 'dh'?)",
+        'robot[1] "arm".joints[3].unit: must be \'deg\', \'rad\', \'mm\' or \'m\', '
+        "not 'degree' (did you mean 'deg'?)",
+        'robot[1] "arm".joints: the type12 kinematics has 2 joints (a0, a1); 4 given',
+    ]
+
+
+def test_a_key_the_schema_refused_is_not_reported_twice(tmp_path: Path) -> None:
+    # "metre" is refused; the default (deg) stands in for the other checks, which must not
+    # then add that a linear joint needs mm or m.
+    robot = """
+    [[robot]]
+    name = "slide"
+    source = "line1"
+    kinematics = { type = "axis_group", axes = [ { name = "x", type = "linear" } ] }
+    joints = [ { node = "x", unit = "metre" } ]
+    """
+    assert problems(write(tmp_path, SOURCE + robot)) == [
+        'robot[0] "slide".joints[0].unit: must be \'deg\', \'rad\', \'mm\' or \'m\', '
+        "not 'metre'"
+    ]
+
+
+def test_one_of_a_thing_is_singular(tmp_path: Path) -> None:
+    robot = """
+    [[robot]]
+    name = "one"
+    source = "line1"
+    kinematics = { type = "dh", d = [0.0], a = [100.0], alpha_deg = [0.0] }
+    joints = [ { node = "a" }, { node = "b" } ]
+    """
+    (message,) = problems(write(tmp_path, SOURCE + robot))
+    assert message.startswith('robot[0] "one".joints: the dh kinematics has 1 joint (')
+    fixed = write(tmp_path, SOURCE + robot.replace(', { node = "b" }', ""), "fixed.toml")
+    result = run_server("check", str(fixed))
+    assert result.stdout == f"{fixed}: one: dh, 1 joint, source line1, no meshes\n"
 
 
 def test_toml_syntax_errors_say_where(tmp_path: Path) -> None:
@@ -181,7 +242,7 @@ def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
     assert arm.joints[0].node == "n_shoulder_pan_joint" and arm.joints[5].node == "n_wrist_3_joint"
     wrong = textwrap.dedent(robot).replace('joint = "elbow_joint"', 'joint = "knee_joint"')
     (message,) = problems(write(tmp_path, SOURCE + wrong, "wrong.toml"))
-    assert message.startswith("robot[0].joints[3].joint: no movable joint 'knee_joint'")
+    assert message.startswith('robot[0] "arm".joints[3].joint: no movable joint \'knee_joint\'')
 
 
 def test_check_prints_one_line_per_robot_and_exits_0() -> None:
@@ -200,7 +261,7 @@ def test_check_and_the_server_refuse_a_bad_cell_with_the_same_message(tmp_path: 
     path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "nope"'))
     checked = run_server("check", str(path))
     started = run_server("--cell", str(path), "--port", "0")
-    expected = f"{path}: robot[0].source: no source named 'nope' (sources: line1)"
+    expected = f"{path}: robot[0] \"kin\".source: no source named 'nope' (sources: line1)"
     assert checked.returncode == 1 and checked.stderr.strip() == expected
     assert started.returncode == 2 and expected in started.stderr
     assert "Traceback" not in checked.stderr + started.stderr
