@@ -3,8 +3,10 @@
 Each mesh is modelled in its link frame, as seed 000 (Figure 11) does in
 Blender: the origin is the link's pivot, so the page only has to set the
 object's position and quaternion from the frame's link pose. Units are metres,
-Z up. The output is byte-identical on every run (fixed section counts, no
-timestamps or ids), and ``tests/assets/test_meshes.py`` checks that.
+Z up. The output is byte-identical on every run with the same trimesh and numpy
+(fixed section counts, no timestamps or ids); ``tests/assets/test_meshes.py``
+checks that a rebuild with whatever versions are installed draws the same
+triangles with the same materials.
 
 Link frames, in hello order:
 

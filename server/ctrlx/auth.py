@@ -168,11 +168,13 @@ class TokenManager:
         *,
         wall: Callable[[], float] = time.time,
         mono: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], Awaitable[None]] = asyncio.sleep,
         backoff: LoginBackoff = LoginBackoff(),
     ) -> None:
         self._fetch = fetch
         self._wall = wall
         self._mono = mono
+        self._sleep = sleep
         self._backoff = backoff
         self._token: Token | None = None
         self._lock = asyncio.Lock()
@@ -250,7 +252,7 @@ class TokenManager:
         wait = self._last_login + self._backoff.gap(self._failures) - self._mono()
         if wait > 0.0:
             log.debug("next login in %.2f s (after %d failures)", wait, self._failures)
-            await asyncio.sleep(wait)
+            await self._sleep(wait)
 
     async def _login(self) -> str:
         self._last_login = self._mono()

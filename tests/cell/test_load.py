@@ -282,3 +282,12 @@ def test_docs_describe_every_key_and_their_example_is_valid() -> None:
     for model in models:
         missing = set(model.model_fields) - named
         assert not missing, f"docs/cell.md does not describe {model.__name__}.{missing}"
+
+
+def test_an_empty_ca_file_is_named(tmp_path: Path) -> None:
+    (tmp_path / "line1.pem").write_bytes(b"")
+    path = write(tmp_path, SOURCE + 'ca = "line1.pem"\n' + TYPE12)
+    assert problems(path) == [
+        f'source[0] "line1".ca: CA file {tmp_path / "line1.pem"} is empty: '
+        "it holds no PEM certificate"
+    ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import ssl
 import time
 from pathlib import Path
 
@@ -40,22 +41,27 @@ def test_login_gaps_grow_from_one_second_to_a_cap() -> None:
 
 
 async def test_failed_logins_are_spaced_by_the_backoff() -> None:
+    now = [100.0]
     calls: list[float] = []
 
+    async def sleep(seconds: float) -> None:  # time passes only while the manager waits
+        now[0] += seconds
+
     async def fetch() -> str:
-        calls.append(time.monotonic())
-        if len(calls) <= 3:
+        calls.append(now[0])
+        if len(calls) <= 4:
             raise DataLayerError("500 login failed")
         return "opaque-token"
 
-    tokens = TokenManager(fetch, backoff=LoginBackoff(first_s=0.1, factor=2.0, max_s=0.15))
-    async with asyncio.timeout(5):
-        for _ in range(3):
-            with pytest.raises(DataLayerError):
-                await tokens.current()
-        assert await tokens.current() == "opaque-token"
+    backoff = LoginBackoff(first_s=0.1, factor=2.0, max_s=0.15)
+    tokens = TokenManager(fetch, mono=lambda: now[0], sleep=sleep, backoff=backoff)
+    for _ in range(4):
+        with pytest.raises(DataLayerError):
+            await tokens.current()
+    assert await tokens.current() == "opaque-token"
     gaps = [b - a for a, b in zip(calls, calls[1:], strict=False)]
-    assert gaps[0] >= 0.1 and gaps[1] >= 0.15 and gaps[2] >= 0.15  # capped, not 0.2
+    # Growing by 2 from 0.1 s, capped at 0.15 s: uncapped it would be 0.1, 0.2, 0.4, 0.8.
+    assert gaps == pytest.approx([0.1, 0.15, 0.15, 0.15])
 
 
 async def test_rejected_tokens_are_spaced_and_an_accepted_one_ends_the_spacing() -> None:
@@ -202,14 +208,23 @@ def test_plain_http_warns_unless_it_stays_on_this_machine() -> None:
 
 
 def test_ca_files_that_cannot_work_raise_clear_value_errors(tmp_path: Path) -> None:
-    junk = tmp_path / "junk.pem"
+    junk, empty, blank = tmp_path / "junk.pem", tmp_path / "empty.pem", tmp_path / "blank.pem"
     junk.write_text("not a certificate\n")
+    empty.write_bytes(b"")  # cadata="" would trust the system's CAs instead
+    blank.write_text("\n  \n")
     for path, says in ((tmp_path / "none.pem", "does not exist"), (tmp_path, "is not a file"),
-                       (junk, "holds no PEM certificate")):  # fmt: skip
+                       (junk, "holds no PEM certificate"), (empty, "is empty"),
+                       (blank, "is empty")):  # fmt: skip
         with pytest.raises(ValueError, match=says):
             client_ssl(path)
-    cert = make_certificate(tmp_path)
-    assert not isinstance(client_ssl(cert.ca_file), bool)
+
+
+def test_a_ca_file_trusts_exactly_its_certificate(tmp_path: Path) -> None:
+    context = client_ssl(make_certificate(tmp_path).ca_file)
+    assert isinstance(context, ssl.SSLContext)
+    assert context.verify_mode == ssl.CERT_REQUIRED and context.check_hostname
+    (trusted,) = context.get_ca_certs()  # the device's certificate, no system CA besides
+    assert trusted["subject"] == ((("commonName", "linkview mock ctrlX CORE"),),)
 
 
 # -- bounded bodies and re-probing, over real sockets -------------------------------------------

@@ -8,6 +8,7 @@ import pytest
 
 from server.__main__ import parse_settings
 from server.mock_ctrlx import make_certificate
+from tests.test_cli import run_server
 
 
 def test_flags(tmp_path: Path) -> None:
@@ -32,3 +33,11 @@ def test_defaults_and_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Pat
     assert settings.ctrlx_mode == "get" and settings.ctrlx_api == "v1"
     assert settings.ctrlx_ca == ca and settings.insecure is True
     assert "boschrexroth" not in repr(settings.ctrlx_password)
+
+
+def test_an_empty_ca_file_is_refused_like_one_without_a_certificate(tmp_path: Path) -> None:
+    empty = tmp_path / "device.pem"
+    empty.write_bytes(b"")
+    result = run_server("--ctrlx-ca", str(empty))
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert f"CA file {empty} is empty" in result.stderr
