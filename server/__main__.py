@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import logging
+import socket
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import uvicorn
@@ -16,6 +18,7 @@ from .config import Settings
 from .logs import setup_logging
 from .runtime.startup import configured_cell
 from .web import create_app
+from .web.listen import ListenError, browser_urls, listen
 from .web.serve import server_config
 
 log = logging.getLogger("server")
@@ -126,21 +129,50 @@ def main(argv: list[str] | None = None) -> None:
     except CellError as exc:  # refuse to start, with the same message as `check`
         print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
         sys.exit(2)
-    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
-    print(
-        f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
-    )
+    try:  # before any controller is contacted: a taken port is all there is to say
+        sockets = listen(settings.host, settings.port)
+    except ListenError as exc:
+        print(f"linkview: {exc}", file=sys.stderr)
+        sys.exit(1)
+    port = int(sockets[0].getsockname()[1])
     if settings.viewer_token is None and not is_loopback(settings.host):
         log.warning(
             "listening on %s without a viewer token: anyone who can reach port %d can watch "
             "this cell (and move its simulated robots); set --viewer-token or "
             "LINKVIEW_VIEWER_TOKEN",
             settings.host,
-            settings.port,
+            port,
+        )
+    if settings.ctrlx_url is not None and "ctrlx_password" not in settings.model_fields_set:
+        log.warning(
+            "logging in to %s as %s with the default password; set LINKVIEW_CTRLX_USER and "
+            "LINKVIEW_CTRLX_PASSWORD if the controller has other credentials",
+            settings.ctrlx_url,
+            settings.ctrlx_user,
         )
     app = create_app(settings, cell)
-    config = server_config(app, settings.host, settings.port, settings.client_timeout_s)
-    uvicorn.Server(config).run()
+    config = server_config(app, settings.host, port, settings.client_timeout_s)
+    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    urls = browser_urls(settings.host, port)
+    here = urls[0] if len(urls) == 1 else f"{urls[0]} here, or {' or '.join(urls[1:])} from others"
+
+    def started() -> None:  # bound and serving: only now is the address worth opening
+        print(f"linkview: open {here}  (data from {where})", flush=True)
+
+    AnnouncingServer(config, started).run(sockets=sockets)
+
+
+class AnnouncingServer(uvicorn.Server):
+    """uvicorn's server, calling ``on_started`` once it serves (sources up, port bound)."""
+
+    def __init__(self, config: uvicorn.Config, on_started: Callable[[], None]) -> None:
+        super().__init__(config)
+        self._on_started = on_started
+
+    async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+        await super().startup(sockets)
+        if self.started:
+            self._on_started()
 
 
 def is_loopback(host: str) -> bool:
