@@ -13,10 +13,11 @@ from pathlib import Path
 import uvicorn
 from pydantic import ValidationError
 
-from .cell import CellError, load_cell, plural
+from .cell import CellError, load_cell
 from .config import Settings
 from .logs import setup_logging
 from .runtime.startup import configured_cell
+from .text import plural
 from .web import create_app
 from .web.listen import ListenError, browser_urls, listen
 from .web.serve import server_config

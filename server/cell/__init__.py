@@ -1,7 +1,6 @@
 """The cell: which robots exist, where they stand, and which data-layer nodes drive them."""
 
 from . import transformation
-from ._validate import plural
 from .load import Cell, CellError, Source, load_cell
 from .robot import Joint, Kinematics, Robot
 
@@ -13,6 +12,5 @@ __all__ = [
     "Robot",
     "Source",
     "load_cell",
-    "plural",
     "transformation",
 ]

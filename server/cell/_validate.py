@@ -68,11 +68,6 @@ def validate(raw: dict[str, Any]) -> Validated:
     return result
 
 
-def plural(n: int, word: str, words: str | None = None) -> str:
-    """``1 joint``, ``2 joints`` (``words``: the plural where it is not ``word + "s"``)."""
-    return f"{n} {word if n == 1 else words or word + 's'}"
-
-
 def _names(items: object) -> dict[int, str]:
     if not isinstance(items, list):
         return {}

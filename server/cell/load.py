@@ -20,8 +20,9 @@ from typing import Literal
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
+from ..text import plural
 from . import schema
-from ._validate import Validated, plural, validate
+from ._validate import Validated, validate
 from .families import Built, SpecError, Where, build, pose_matrix
 from .robot import Joint, Robot
 

@@ -99,6 +99,8 @@ class DataLayerClient:
         self.redact = Redactor(credentials.password)
         self.tokens = TokenManager(self._fetch_token)
         self.traffic = Traffic()
+        self.failed_starts = 0
+        """``follow()`` runs that failed since the last sample (kept across restarts of it)."""
         self.notes: dict[str, str] = {}
         """Standing caveats by topic (a refused service, ...); ``warning`` joins them."""
         self.capabilities = Capabilities(

@@ -21,6 +21,7 @@ fallback meanwhile shows as a standing caveat in ``client.warning``.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import math
 import random
@@ -29,6 +30,7 @@ from collections.abc import AsyncGenerator, AsyncIterator
 from dataclasses import dataclass
 from typing import Literal
 
+from ..text import plural
 from .client import DataLayerClient
 from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update
 from .pacing import Pacer
@@ -95,7 +97,35 @@ def follow(
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
     reprobe = REPROBE_S if reprobe_s is None else reprobe_s
-    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
+    samples = _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
+    return _counted(client, samples)
+
+
+async def _counted(
+    client: DataLayerClient, samples: AsyncGenerator[Sample, None]
+) -> AsyncGenerator[Sample, None]:
+    """``samples``, counting the failed starts on the client: one log line per change of state.
+
+    A device that is down is tried again and again (by whoever restarts
+    ``follow``); each attempt's own lines then go to DEBUG, and the first
+    sample says how many attempts it took.
+    """
+    try:
+        async with contextlib.aclosing(samples):
+            async for sample in samples:
+                if client.failed_starts:
+                    failed = plural(client.failed_starts, "failed attempt")
+                    log.info("%s: samples again, after %s", client.base_url, failed)
+                    client.failed_starts = 0
+                yield sample
+    except DataLayerError:
+        client.failed_starts += 1
+        raise
+
+
+def _news(client: DataLayerClient) -> int:
+    """INFO for a start after samples came, DEBUG while attempts keep failing."""
+    return logging.DEBUG if client.failed_starts else logging.INFO
 
 
 async def _follow(
@@ -200,8 +230,9 @@ class _Interruptions:
         if not (self._worked and _transient(exc)) or now - self._since > self._policy.give_up_s:
             raise exc
         delay = self._policy.delay(self._attempt)
+        level = logging.INFO if self._attempt == 0 else logging.DEBUG  # news once per streak
         self._attempt += 1
-        log.info("data layer interrupted (%s); retrying in %.2f s", exc, delay)
+        log.log(level, "data layer interrupted (%s); retrying in %.2f s", exc, delay)
         await asyncio.sleep(delay)
 
 
@@ -263,7 +294,8 @@ async def _subscribe(
     subscription = Subscription(client, nodes, settings)
     latest = _Latest(nodes, grace_s=keepalive_s)
     stream: EventStream | None = None
-    log.info(
+    log.log(
+        _news(client),
         "%s: subscribing to %d nodes (publish every %d ms)",
         client.base_url,
         len(nodes),
@@ -331,7 +363,14 @@ async def _poll(
     """Polls until the refused subscriptions are due to be tried again (if ever)."""
     use_bulk = bulk is not None and bulk.due()
     how = "bulk reads" if use_bulk else "one GET per node"
-    log.info("%s: polling %d nodes every %g s (%s)", client.base_url, len(nodes), period_s, how)
+    log.log(
+        _news(client),
+        "%s: polling %d nodes every %g s (%s)",
+        client.base_url,
+        len(nodes),
+        period_s,
+        how,
+    )
     pacer = Pacer(period_s)
     while events is None or not events.due():
         if bulk is not None and not use_bulk and bulk.due():

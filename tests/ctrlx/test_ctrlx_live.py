@@ -232,6 +232,33 @@ async def test_outage_is_reported_and_recovered_by_the_acquisition() -> None:
             await runtime.stop()
 
 
+async def test_an_outage_is_logged_once_per_change_of_state_with_a_count(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    async with running() as mock:
+        settings = Settings(ctrlx_url=mock.url, keepalive_s=0.2)
+        runtime = await Runtime.start(configured_cell(settings), source_defaults(settings))
+        try:
+            (source,) = runtime.sources.values()
+            await wait_until(lambda: source.health.state == "connected")
+            caplog.clear()
+            caplog.set_level(logging.INFO)
+            mock.state.faults.outage = True
+            # Several attempts (the acquisition tries again within 1.5 s).
+            await wait_until(lambda: source.client.failed_starts >= 4, timeout_s=30)
+            during = [r.getMessage() for r in caplog.records]
+            mock.state.faults.outage = False
+            await wait_until(lambda: source.health.state == "connected", timeout_s=20)
+            attempts = source.acquisition.failures
+        finally:
+            await runtime.stop()
+    # The outage is news once: the broken stream, the error, the silence; no line per attempt.
+    assert len(during) <= 4, during
+    assert not [m for m in during if "subscribing" in m or "polling" in m], during
+    back = [r.getMessage() for r in caplog.records if "samples again" in r.getMessage()]
+    assert back == [f"{mock.url}: samples again, after {attempts} failed attempts"]
+
+
 async def test_https_with_the_devices_certificate(tmp_path: Path) -> None:
     async with running(tls_dir=tmp_path) as mock:
         assert mock.url.startswith("https://") and mock.cert is not None
