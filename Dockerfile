@@ -10,7 +10,10 @@ COPY server ./server
 COPY static ./static
 COPY assets ./assets
 COPY cells ./cells
-RUN pip install --no-cache-dir .
+RUN pip install --no-cache-dir . \
+ && useradd --create-home --uid 10001 --shell /usr/sbin/nologin linkview
+# Never root: whoever breaks into the server gets a user that owns nothing but its cache.
+USER linkview
 
 # Inside a container the port must be reachable from outside it. Without a viewer token the
 # server warns that anyone who reaches the port can watch: set LINKVIEW_VIEWER_TOKEN.

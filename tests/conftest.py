@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import shutil
 import socket
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Iterator
 from contextlib import asynccontextmanager
+from pathlib import Path
 
+import pytest
 import uvicorn
 from aiohttp import web
 
@@ -17,6 +20,30 @@ from server.mock_ctrlx import build_app, serve
 from server.paths import DEMO_CELL
 from server.web import create_app
 from server.web.serve import server_config
+
+
+@pytest.fixture(scope="session", autouse=True)
+def user_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The user's cache, moved to a temporary folder for the session (subprocesses included).
+
+    Tests write only under their own temporary folders; whatever lands here came
+    from a test that forgot to pass one (see ``no_writes_to_the_user_cache``).
+    """
+    cache = tmp_path_factory.mktemp("xdg-cache")
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("XDG_CACHE_HOME", str(cache))
+        env.delenv("LINKVIEW_CACHE_DIR", raising=False)
+        yield cache / "linkview"
+
+
+@pytest.fixture(autouse=True)
+def no_writes_to_the_user_cache(user_cache: Path) -> Iterator[None]:
+    """Fails the test that wrote to linkview's default cache (``~/.cache/linkview``)."""
+    yield
+    if user_cache.exists():
+        written = sorted(str(p.relative_to(user_cache)) for p in user_cache.rglob("*"))
+        shutil.rmtree(user_cache)  # charge the next test only with what it writes
+        pytest.fail(f"wrote to the user's cache (pass a temporary cache_dir): {written}")
 
 
 def demo_cell() -> Cell:

@@ -17,11 +17,12 @@ from tests.conftest import free_port
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_server(*args: str) -> subprocess.CompletedProcess[str]:
+def run_server(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
     """``python -m server ARGS`` from the repository root, its output captured."""
     return subprocess.run(
         [sys.executable, "-m", "server", *args],
         cwd=ROOT,
+        env=None if env is None else {**os.environ, **env},
         text=True,
         capture_output=True,
         timeout=60,

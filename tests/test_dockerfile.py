@@ -71,3 +71,24 @@ def test_dockerfile_entry_command_serves_health() -> None:
         proc.wait(10)
         if proc.stdout:
             proc.stdout.close()
+
+
+def instructions() -> list[str]:
+    """The Dockerfile's instructions, continuation lines joined, comments left out."""
+    text = (ROOT / "Dockerfile").read_text().replace("\\\n", " ")
+    return [line for line in text.splitlines() if line and not line.startswith("#")]
+
+
+def test_the_image_runs_as_an_unprivileged_user_it_creates() -> None:
+    steps = instructions()
+    users = [i for i, step in enumerate(steps) if step.startswith("USER ")]
+    assert users, "without USER the server runs as root"
+    at = users[-1]
+    user = steps[at].split()[1].split(":")[0]
+    assert user not in ("root", "0"), steps[at]
+    adds = [re.search(rf"\buseradd ([^&;]*\b{user})\b", s) for s in steps[:at] if "RUN " in s]
+    (created,) = [m.group(1).split() for m in adds if m]  # created once, before USER
+    assert "0" not in created and "-o" not in created and "--non-unique" not in created
+    cmd = next(i for i, step in enumerate(steps) if step.startswith("CMD "))
+    healthcheck = next(i for i, step in enumerate(steps) if step.startswith("HEALTHCHECK "))
+    assert at < cmd and at < healthcheck, "the server and its health check run as that user"

@@ -52,5 +52,5 @@ def test_the_cell_snippet_loads_as_pasted(tmp_path: Path) -> None:
 
 def test_the_default_controller_login_is_stated() -> None:
     # People must know what linkview tries when they give no user or password.
-    assert re.search(r"user and password\W+default to `boschrexroth`", README)
-    assert "only ever from the environment" in README
+    assert re.search(r"user and password\s+both default to `boschrexroth`", README)
+    assert re.search(r"password comes\s+only ever from the environment", README)

@@ -245,8 +245,9 @@ def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
     assert message.startswith('robot[0] "arm".joints[3].joint: no movable joint \'knee_joint\'')
 
 
-def test_check_prints_one_line_per_robot_and_exits_0() -> None:
-    result = run_server("check", "cells/demo.toml", "cells/examples/two_controllers.toml")
+def test_check_prints_one_line_per_robot_and_exits_0(tmp_path: Path) -> None:
+    files = ("cells/demo.toml", "cells/examples/two_controllers.toml")
+    result = run_server("check", *files, env={"LINKVIEW_CACHE_DIR": str(tmp_path)})
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == [
         "cells/demo.toml: kin12: type12, 2 joints, source demo, 4 meshes",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import aiohttp
@@ -144,11 +145,11 @@ async def test_fk_with_links_gives_every_link_pose_and_the_tcp_as_the_stream_doe
     np.testing.assert_allclose(matrix_from_pose7(np.array(fk["tcp"])), tcp, atol=1e-12)
 
 
-async def test_a_urdf_robot_works_in_fk_and_ik_like_the_others() -> None:
+async def test_a_urdf_robot_works_in_fk_and_ik_like_the_others(tmp_path: Path) -> None:
     from server.cell import load_cell
     from server.paths import CELLS_DIR
 
-    cell = load_cell(CELLS_DIR / "examples" / "two_controllers.toml")
+    cell = load_cell(CELLS_DIR / "examples" / "two_controllers.toml", cache_dir=tmp_path)
     arm = cell.robots[0]
     assert arm.family == "urdf"
     q = np.radians([[10.0, -60.0, 70.0, -40.0, 80.0, 15.0], [-30.0, -100.0, 45.0, 20.0, 60.0, 0.0]])
