@@ -5,8 +5,10 @@ from __future__ import annotations
 import asyncio
 import logging
 import ssl
+import statistics
 from pathlib import Path
 
+import numpy as np
 import pytest
 from aiohttp import web
 from aiohttp.typedefs import Handler
@@ -80,10 +82,11 @@ async def test_relogin_after_the_mock_invalidates_all_tokens() -> None:
 async def test_short_tokens_are_renewed_before_they_expire_and_revoked_on_close() -> None:
     async with running(token_lifetime_s=1.0) as mock:
         async with client(mock.url) as c:
-            samples = await collect(follow(c, KIN12, PUBLISH_S, "poll"), duration_s=2.5)
+            await collect(
+                follow(c, KIN12, PUBLISH_S, "poll"), duration_s=2.5, at_least=11
+            )
             token = c.tokens.token
             assert token is not None and c.tokens.logins >= 3
-        assert len(samples) > 10
         assert mock.count("PUT", "/automation/", status=401) == 0, "renewed before expiry"
         assert mock.state.tokens.check(token.value) == "the token was revoked"
         assert mock.count("DELETE", "/identity-manager/api/v2/auth/token") == 1
@@ -94,8 +97,13 @@ async def test_two_second_tokens_while_a_stream_runs_leave_no_gap() -> None:
         samples = await collect(follow(c, KIN12, PUBLISH_S, keepalive_s=0.5), duration_s=5.0)
         assert c.tokens.logins >= 3, "the stream outlived several tokens"
     assert mock.count("GET", "/automation/api/v2/events/") >= 3
+    # Renewed before each token ran out: no request, the streams included, was refused.
     assert mock.count("GET", "/automation/", status=401) == 0
-    assert max_gap(samples) <= 2 * PUBLISH_S + 0.005
+    # In order, and no hole a reconnect would leave (a dead stream is noticed after 1.25 s):
+    # the widest step is a few of this very run's publish periods, however busy the machine.
+    times = [sample.t_source for sample in samples]
+    assert times == sorted(set(times))
+    assert max_gap(samples) <= 10 * statistics.median(np.diff(times)), max_gap(samples)
     assert all(isinstance(v, float) for s in samples for v in s.values.values())
 
 
@@ -156,12 +164,12 @@ async def test_every_node_bad_is_an_error_of_the_source() -> None:
 
 async def test_subscribe_falls_back_to_bulk_polling_then_to_single_gets() -> None:
     async with running(subscriptions=False) as mock, client(mock.url) as c:
-        samples = await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3)
-        assert samples and c.capabilities.subscribe is False and c.capabilities.bulk is True
+        await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3, at_least=3)
+        assert c.capabilities.subscribe is False and c.capabilities.bulk is True
     assert mock.count("PUT", "/automation/api/v2/bulk") >= 3
     async with running(subscriptions=False, bulk_reads=False) as mock, client(mock.url) as c:
-        samples = await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3)
-        assert samples and c.capabilities.bulk is False
+        await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3, at_least=3)
+        assert c.capabilities.bulk is False
     assert mock.count("GET", "/automation/api/v2/nodes/") >= 2 * 3
 
 
@@ -176,16 +184,14 @@ async def test_short_form_when_created_subscriptions_are_refused() -> None:
 
     app.middlewares.append(no_post)
     async with running(app) as mock, client(mock.url) as c:
-        samples = await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3)
-    assert len(samples) >= 3
+        await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3, at_least=3)
     assert mock.count("GET", "/automation/api/v2/events") == 1
     assert ("GET", "/automation/api/v2/events", 200) in mock.log
 
 
 async def test_older_firmware_paths() -> None:
     async with running() as mock, client(mock.url, api="v1") as c:
-        samples = await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3)
-    assert samples
+        await collect(follow(c, KIN12, PUBLISH_S), duration_s=0.3, at_least=2)
     assert mock.count("POST", "/identity-manager/api/v1.0/auth/token") == 1
     assert mock.count("GET", "/automation/api/v1/motion/axs/") >= 2
     assert not any(p.startswith("/automation/api/v2") for _, p, _ in mock.log)
@@ -194,16 +200,16 @@ async def test_older_firmware_paths() -> None:
 async def test_keepalives_keep_samples_coming_when_nothing_changes() -> None:
     machine = Machine(clock=lambda: 1.7e9)  # a machine at rest
     async with running(build_app(machine, changes_only=True)) as mock, client(mock.url) as c:
-        samples = await collect(follow(c, KIN12, PUBLISH_S, keepalive_s=0.1), duration_s=0.5)
-    assert len(samples) >= 3
+        samples = await collect(
+            follow(c, KIN12, PUBLISH_S, keepalive_s=0.1), duration_s=0.5, at_least=3
+        )
     assert len({tuple(s.values.values()) for s in samples}) == 1
 
 
 async def test_injected_errors_are_ridden_out() -> None:
     async with running() as mock, client(mock.url) as c:
         mock.state.faults.error_rate = 0.3
-        samples = await collect(follow(c, KIN12, PUBLISH_S, "poll"), duration_s=1.0)
-    assert len(samples) >= 5
+        await collect(follow(c, KIN12, PUBLISH_S, "poll"), duration_s=1.0, at_least=5)
     assert mock.count("PUT", "/automation/api/v2/bulk", status=500) >= 1
 
 

@@ -2,8 +2,9 @@
 
 Every case runs linkview (uvicorn, acquisition, client) against the fake on
 real loopback sockets and reads ``GET /api/health``. Each checks that the
-fault ends in a clear error or warning, that the server streams again within
-2 s of the device behaving, that our RSS grew by less than 20 MB while the
+fault ends in a clear error or warning, that the server streams again once the
+device behaves (within a generous 10 s; on a quiet machine it takes under 2 s,
+``bench/device_recovery.py``), that our RSS grew by less than 20 MB while the
 fault ran, and that no password or token reached the log or the health report.
 """
 
@@ -36,12 +37,12 @@ FAULT_S = 1.0
 """How long a fault runs on after it shows, before RSS is read again and the device heals."""
 LONG_FAULT_S = 2.5
 """The same for faults that would make an unbounded reader hoard memory."""
-SHOW_S = 6.0
+SHOW_S = 15.0
 """Bound on the wait for the fault to show in /api/health."""
-RECOVER_S = 2.0
-"""The server must stream again this soon after the device behaves (bounded wait)."""
+RECOVER_S = 10.0
+"""Bound on the wait for streaming again after the device behaves (the figure: the bench)."""
 RSS_LIMIT = 20 * 1024 * 1024
-STATUS_S = 1.5
+STATUS_S = 5.0
 """Bound on the wait for a status change that follows recovery (status comes every 1 s)."""
 
 

@@ -179,10 +179,23 @@ async def test_a_robot_whose_kinematics_raises_does_not_stop_the_others() -> Non
 
 
 async def test_binary_messages_from_a_viewer_are_ignored() -> None:
+    async def kin12_seqs(ws: Any, count: int) -> list[int]:
+        seqs: list[int] = []
+        while len(seqs) < count:
+            msg = json.loads(await ws.recv())
+            if msg["type"] == "frame" and msg["robot"] == "kin12":
+                seqs.append(msg["seq"])
+        return seqs
+
     async with running_mock() as (_, url), running_server(Settings(ctrlx_url=url)) as base:
-        async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(10):
+        async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(20):
+            (before,) = await kin12_seqs(ws, 1)
             await ws.send(b"\x00\x01 not text")
             await ws.send("some text")
-            frames = 0
-            while frames < 20:
-                frames += json.loads(await ws.recv())["type"] == "frame"
+            await ws.send(bytes(range(256)) * 8)
+            after = await kin12_seqs(ws, 20)
+            health = await health_of(base)
+            assert ws.close_code is None, "the viewer was disconnected"
+    # The stream went on, in order, to a viewer the server still counts.
+    assert before < after[0] and after == sorted(set(after)), (before, after)
+    assert health["viewers"] == 1

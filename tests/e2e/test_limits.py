@@ -1,9 +1,11 @@
-"""Hostile clients get a clean answer fast, and a reading viewer keeps >= 45 frames/s meanwhile.
+"""Hostile clients get a clean answer, and a reading viewer keeps its stream meanwhile.
 
 One server process (token set, 2 s request deadline) serves the whole module. A
 viewer in a background thread reads the protocol-2 stream throughout and
 timestamps every frames message; each test attacks from the main thread and
-checks the frames that arrived during its attack, and the server's RSS.
+checks the frames that arrived during its attack against the rate the same
+viewer got before any attack (a ratio: absolute frame rates on a shared
+machine are benchmark figures, ``bench/hostile_clients.py``), and the server's RSS.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import struct
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -25,7 +28,9 @@ from tests.web._browser import free_port, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-MIN_FPS = 45.0
+MIN_SHARE = 0.33
+"""Under attack the viewer keeps at least a third of its quiet frame rate (50/s on a quiet box)."""
+QUIET_S = 2.0
 MIB = 1 << 20
 
 
@@ -57,9 +62,13 @@ class Viewer(threading.Thread):
 
 
 class Server:
-    def __init__(self, url: str, pid: int, viewer: Viewer) -> None:
+    def __init__(self, url: str, pid: int, viewer: Viewer, quiet_fps: float) -> None:
         self.url, self.pid, self.viewer = url, pid, viewer
         self.port = int(url.rsplit(":", 1)[1])
+        self.quiet_fps = quiet_fps
+        """Frames messages per second the viewer got before any attack."""
+        self.windows: list[tuple[float, float]] = []
+        """(frames/s, seconds) of each attack window so far."""
 
     def rss_mib(self) -> float:
         for line in Path(f"/proc/{self.pid}/status").read_text().splitlines():
@@ -86,34 +95,52 @@ class _Window:
         end = max(time.monotonic(), self.start + 2.0)
         while time.monotonic() < end:  # a window of at least 2 s
             time.sleep(0.05)
-        viewer = self.server.viewer
+        server, viewer = self.server, self.server.viewer
         assert viewer.is_alive(), f"the reading viewer died: {viewer.error!r}"
         fps = viewer.fps(self.start, end)
-        assert fps >= MIN_FPS, f"reading viewer fell to {fps:.1f} frames/s"
-        self.rss_growth = self.server.rss_mib() - self.rss_before
+        server.windows.append((fps, end - self.start))
+        assert fps >= MIN_SHARE * server.quiet_fps, (
+            f"reading viewer fell to {fps:.1f} frames/s from {server.quiet_fps:.1f} before"
+        )
+        self.rss_growth = server.rss_mib() - self.rss_before
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    log = tmp_path_factory.mktemp("limits") / "server.log"
+def _pid_with_arguments(part: bytes) -> int:
+    """The process whose command line holds ``part`` (others may come and go meanwhile)."""
+    for proc in Path("/proc").iterdir():
+        try:
+            if proc.name.isdigit() and part in (proc / "cmdline").read_bytes():
+                return int(proc.name)
+        except OSError:
+            continue
+    raise AssertionError(f"no process with {part!r} in its command line")
+
+
+@contextmanager
+def limits_server(log: Path) -> Iterator[Server]:
+    """The server these attacks hit, a viewer reading it, and that viewer's quiet frame rate."""
     env = {"LINKVIEW_VIEWER_TOKEN": TOKEN, "LINKVIEW_CLIENT_TIMEOUT_S": "2"}
     with server_process(free_port(), log, env=env) as url:
-        pid = int(
-            next(
-                p.name
-                for p in Path("/proc").iterdir()
-                if p.name.isdigit() and f"--port\0{url.rsplit(':', 1)[1]}".encode()
-                in (p / "cmdline").read_bytes()
-            )
-        )
+        pid = _pid_with_arguments(f"--port\0{url.rsplit(':', 1)[1]}".encode())
         viewer = Viewer(url.replace("http", "ws") + "/ws")
         viewer.start()
         deadline = time.monotonic() + 15
         while len(viewer.arrivals) < 50:  # streaming before any attack
             assert time.monotonic() < deadline, f"no frames: {viewer.error!r}"
             time.sleep(0.05)
-        yield Server(url, pid, viewer)
-        viewer.stop.set()
+        start = time.monotonic()
+        time.sleep(QUIET_S)
+        quiet = viewer.fps(start, start + QUIET_S)
+        try:
+            yield Server(url, pid, viewer, quiet)
+        finally:
+            viewer.stop.set()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    with limits_server(tmp_path_factory.mktemp("limits") / "server.log") as running:
+        yield running
 
 
 def _answer(sock: socket.socket, limit: int = 65536) -> bytes:
