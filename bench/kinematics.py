@@ -45,7 +45,7 @@ WHY = {
     "fk_one": "one Python float expression per matrix entry and joint, plus building the array; "
     "the figure moves with the load on these shared cores",
     "type12": "a third of the time is four libm sin/cos per configuration (NumPy does not "
-    "vectorise float64 sin/cos here), the rest ~20 elementwise passes of the seed's "
+    "vectorise float64 sin/cos here), the rest ~20 elementwise passes of the note's "
     "circle intersection; on these shared cores the figure moves by +-30 % from run to run",
     "ik_all": "about 100 NumPy passes over (10 000, 8) arrays, plus a forward check of all 80 000",
     "ik_success": "targets near singular or limit-bound configurations where no start converged",

@@ -14,7 +14,7 @@ from . import schema
 from .axis_group import AxisGroupKinematics
 from .robot import DEG, MM, Array, Family, Kinematics
 
-# WorldModel's stand-in for "no limit" (seed 003: "practically infinite").
+# WorldModel's stand-in for "no limit" (the MotionPlus Axis Group API: "practically infinite").
 UNLIMITED = 1e300
 
 
@@ -123,7 +123,7 @@ def _dh(spec: schema.DH, where: Where) -> Built:
 
 
 def _iiwa(spec: schema.DH, limits: Array | None) -> LBRiiwa:
-    """Seed 004's LBR iiwa, when the table is one (else the analytic inverse would be wrong)."""
+    """The LBR iiwa's analytic inverse, when the table is an iiwa's (else it would be wrong)."""
     d = np.asarray(spec.d) / 1000.0
     template = LBRiiwa(d[0], d[2], d[4], d[6], np.zeros((7, 2))) if len(d) == 7 else None
     offsets = np.zeros(7) if spec.offset_deg is None else np.radians(spec.offset_deg)

@@ -62,7 +62,7 @@ class Joint(_Strict):
 
 
 class Type12(_Strict):
-    """Seed 000's five-bar mechanism; link lengths in mm."""
+    """The IndraMotion MLC kinematic Type 12 (a five-bar mechanism); link lengths in mm."""
 
     type: Literal["type12"]
     L1: Annotated[float, Field(gt=0.0)] = 200.0
@@ -86,11 +86,11 @@ class DH(_Strict):
     limits: list[Range] | None = None
     """Per joint [lower, upper] in degrees."""
     solver: Literal["numeric", "iiwa"] = "numeric"
-    """``iiwa``: seed 004's analytic inverse (8 configurations); the table must be an LBR iiwa."""
+    """``iiwa``: the LBR iiwa's analytic inverse (8 configurations); the table must be an iiwa's."""
 
 
 class Axis(_Strict):
-    """Seed 003's ``axis_group_add_axis`` parameters."""
+    """The parameters of the MotionPlus Axis Group API's ``axis_group_add_axis``."""
 
     name: Name
     parent: str = ""
@@ -100,9 +100,9 @@ class Axis(_Strict):
     type: Literal["rotary", "linear"] = "rotary"
     """Rotary about +Z or linear along +Z."""
     v_limit: Annotated[float, Field(gt=0.0)] = 1.0
-    """Velocity limit in rad/s or m/s (seed 003)."""
+    """Velocity limit in rad/s or m/s (as ``axis_group_add_axis``)."""
     a_limit: Annotated[float, Field(gt=0.0)] = 1.0
-    """Acceleration limit in rad/s^2 or m/s^2 (seed 003)."""
+    """Acceleration limit in rad/s^2 or m/s^2 (as ``axis_group_add_axis``)."""
     limits: Range | None = None
     """[lower, upper] in degrees (rotary) or mm (linear); default: unlimited."""
     axis_index: Annotated[int, Field(ge=0, le=5)] | None = None
@@ -111,7 +111,7 @@ class Axis(_Strict):
 
 
 class AxisGroup(_Strict):
-    """A MotionPlus axis group (seed 003); joints in axis-index order."""
+    """A MotionPlus axis group (Universal Robots); joints in axis-index order."""
 
     type: Literal["axis_group"]
     pose: Pose = Pose()

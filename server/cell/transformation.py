@@ -1,4 +1,5 @@
-"""Seed 004's Transformation service: forward and inverse kinematics of a cell robot, in SI units.
+"""Forward and inverse kinematics of a cell robot, in SI units (the KUKA LBR arm tutorial's
+Transformation service).
 
 The web layer calls these; they hold the per-family choices (which inverse,
 which solutions to list) so that routes stay free of kinematics.
@@ -20,7 +21,7 @@ class TransformInputError(ValueError):
 
 @dataclass(frozen=True)
 class ForwardResult:
-    """TCP poses ``[x, y, z, qx, qy, qz, qw]`` (m), roll-pitch-yaw (rad, seed 004) and ``ok``.
+    """TCP poses ``[x, y, z, qx, qy, qz, qw]`` (m), the tutorial's roll-pitch-yaw (rad), ``ok``.
 
     ``links``, when asked for, holds every link's pose per row (hello order, base frame).
     """

@@ -43,7 +43,7 @@ API_PATHS: dict[ApiVersion, ApiPaths] = {
         bulk="/automation/api/v2/bulk",
         events="/automation/api/v2/events",
     ),
-    # The seed's relay (firmware 1.x): token at v1.0, nodes straight under /automation/api/v1/.
+    # Firmware 1.x: token at v1.0, nodes straight under /automation/api/v1/.
     "v1": ApiPaths(
         token="/identity-manager/api/v1.0/auth/token",
         nodes="/automation/api/v1/",

@@ -6,7 +6,7 @@ Three ways, chosen by ``mode``:
   back to ``poll`` when the server offers no subscriptions.
 * ``poll``: one bulk read of every node per period. Falls back to ``get`` when
   the server has no bulk service (older firmware).
-* ``get``: one GET per node per period, as the seed's relay did.
+* ``get``: one GET per node per period, as simple relays do.
 
 Short interruptions of a source that was working (a stream that closes, a
 token that expires, a request that fails) are ridden out by reconnecting with

@@ -1,6 +1,6 @@
-"""Records and argument rules of the axis-group world model (seed 003); private.
+"""Records and argument rules of the axis-group world model (MotionPlus Axis Group API); private.
 
-Each check raises ``ValueError`` with a message that names the seed's rule.
+Each check raises ``ValueError`` with a message that names the API's rule.
 Units: rad (rotary) or m (linear); poses are UR pose vectors [x, y, z, rx, ry, rz].
 """
 

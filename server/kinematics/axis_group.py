@@ -1,16 +1,16 @@
-"""World model of MotionPlus axis groups (seed 003), without a controller.
+"""World model of MotionPlus axis groups (Universal Robots' Axis Group API), without a controller.
 
 Frames: ``"base"`` is the robot's base frame and the world frame of this
 model. A group's base frame is fixed in it; each axis frame sits at its
 zero-position ``pose`` in its parent frame (the group base or another axis of
 the group) and then turns about its local +Z (type 0, rotary, rad) or moves
-along it (type 1, linear, m). Poses given to and returned by the seed-named
+along it (type 1, linear, m). Poses given to and returned by the API-named
 methods are UR pose vectors ``[x, y, z, rx, ry, rz]`` (m, axis-angle rad).
-Position arrays are ordered by axis index, as in the seed.
+Position arrays are ordered by axis index, as in the API.
 
 Time is explicit: ``axis_group_movej`` and ``axis_group_speedj`` plan a
 profile (:mod:`.motion`) and ``advance(dt)`` moves the actual positions along
-it. Every rule of the seed that a call breaks raises ``ValueError`` naming it.
+it. Every rule of the API that a call breaks raises ``ValueError`` naming it.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ BoolArray = npt.NDArray[np.bool_]
 
 
 class WorldModel:
-    """Axis groups and their external axes, seed 003's ``axis_group_*`` API in Python."""
+    """Axis groups and their external axes, the MotionPlus ``axis_group_*`` API in Python."""
 
     def __init__(self) -> None:
         self._groups: dict[str, GroupRecord] = {}

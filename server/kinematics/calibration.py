@@ -1,4 +1,4 @@
-"""Calibration of external axes from sampled robot poses (seed 003).
+"""Calibration of external axes from sampled robot poses (MotionPlus Axis Group API).
 
 Inputs are UR pose vectors ``[x, y, z, rx, ry, rz]`` (or bare positions
 ``[x, y, z]``) in the robot's base frame, in metres; only their positions are
@@ -25,7 +25,7 @@ _CIRCLE_ITERATIONS = 20
 
 @dataclass(frozen=True, eq=False)
 class RotaryCalibration:
-    """Result of :func:`calibrate_rotary_axis` (seed 003).
+    """Result of :func:`calibrate_rotary_axis` (as MotionPlus returns it).
 
     ``pose``: frame of the rotary axis in the base frame (UR pose vector),
     origin at the headstock circle's centre, +Z the axis of rotation, +X towards
@@ -42,7 +42,7 @@ class RotaryCalibration:
 
 @dataclass(frozen=True, eq=False)
 class LinearCalibration:
-    """Result of :func:`calibrate_linear_axis` (seed 003).
+    """Result of :func:`calibrate_linear_axis` (as MotionPlus returns it).
 
     ``pose``: frame of the linear axis in the base frame (UR pose vector),
     origin at the origin sample projected on the fitted line, +Z along the line
@@ -166,7 +166,7 @@ def calibrate_linear_axis(
     the axis (base frame, m). +Z is the SVD line through the origin and z
     points, pointing from the origin towards the z points. ``is_mounted``: the
     robot rides on the axis, so the samples of a fixed point move opposite to
-    the carriage and +Z is reversed (an assumption: the seed does not say).
+    the carriage and +Z is reversed (an assumption: the API does not say).
     """
     start = _positions(np.reshape(np.asarray(origin, dtype=np.float64), (1, -1)), "origin", 1)[0]
     along = _positions(z_points, "z_points", 1)

@@ -3,7 +3,7 @@
 Frame: the robot base; every pose is a 4x4 homogeneous matrix in that frame.
 Units: metres and radians. Conventions: ``"standard"`` DH, where joint ``i``
 contributes ``Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``, or ``"modified"``
-(Craig, seed 004's ``GetTransformationMatrix``), where it contributes
+(Craig, the KUKA LBR arm tutorial's ``GetTransformationMatrix``), where it contributes
 ``Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)``; in that case row ``i`` of
 ``a`` and ``alpha`` holds Craig's ``a_{i-1}`` and ``alpha_{i-1}``, as in
 roboticstoolbox's ``RevoluteMDH``. ``theta_i = q_i + theta_offset_i``.

@@ -1,11 +1,11 @@
-"""KUKA LBR iiwa: a 7-axis ``DHChain`` with seed 004's geometric inverse.
+"""KUKA LBR iiwa: a 7-axis ``DHChain`` with the KUKA LBR arm tutorial's geometric inverse.
 
 Frame: the robot base, Z up along joint 1; poses are the flange in that frame.
 Units: metres and radians. Convention: standard DH (``DHChain``), with
 ``d = (d_base, 0, d_upper, 0, d_fore, 0, d_flange)``, ``a = 0`` and
 ``alpha = (-90, 90, 90, -90, -90, 90, 0)`` degrees.
 
-The inverse follows seed 004's geometric method. Joints 1-3 form a spherical
+The inverse follows that tutorial's geometric method. Joints 1-3 form a spherical
 shoulder S, joints 5-7 a spherical wrist W = flange - d_flange * z_flange.
 With the redundant joint 3 held, the elbow angle comes from the law of cosines
 on |SW|, joints 1 and 2 from the direction of SW, and joints 5-7 from the
@@ -13,7 +13,7 @@ remaining rotation, which is Z-Y-Z Euler angles. Three binary choices give the
 eight configurations, numbered ``k = 4 * arm + 2 * elbow + wrist``:
 
 * ``arm``: the wrist centre lies on the +x (0) or -x (1) side of frame 1
-  (with joint 3 at 0, the seed's joint 1 and joint 1 + pi);
+  (with joint 3 at 0, the tutorial's joint 1 and joint 1 + pi);
 * ``elbow``: joint 4 is positive (0) or negative (1);
 * ``wrist``: joint 6 is positive (0) or negative (1).
 
@@ -37,7 +37,7 @@ BoolArray = npt.NDArray[np.bool_]
 
 REACH_TOLERANCE = 1e-9  # m for position, and per rotation-matrix entry
 # Below this |sin(joint 6)| the wrist is singular: only joint 5 +- joint 7 is
-# defined, and (as in the seed) both get half of it.
+# defined, and (as in the tutorial) both get half of it.
 WRIST_SINGULAR = 1e-12
 
 
@@ -114,7 +114,7 @@ class LBRiiwa(DHChain):
         q[..., 3] = q4[..., None]
         frame4 = self._frames(q[:, :, :, 0].reshape(-1, 7))[:, 4, :3, :3].reshape(b, 2, 2, 3, 3)
         m = np.swapaxes(frame4, -1, -2) @ rot[:, None, None]
-        # atan2 rather than the seed's acos: acos(m22) loses half the digits near 0.
+        # atan2 rather than the tutorial's acos: acos(m22) loses half the digits near 0.
         q6 = np.arctan2(np.hypot(m[..., 0, 2], m[..., 1, 2]), m[..., 2, 2])[..., None]
         q6 = q6 * np.array([1.0, -1.0])
         sign = np.sign(np.sin(q6))
@@ -122,7 +122,7 @@ class LBRiiwa(DHChain):
         # R_47 = Rz(q5) Ry(q6) Rz(q7).
         q5 = np.arctan2(sign * m[..., 1, 2], sign * m[..., 0, 2])
         singular = np.abs(np.sin(q6)) < WRIST_SINGULAR
-        if singular.any():  # the seed: joints 5 and 7 share the turn, +pi each on the flip
+        if singular.any():  # the tutorial: joints 5 and 7 share the turn, +pi each on the flip
             flipped = np.cos(q6) < 0.0  # only q5 - q7 defined there
             total = np.arctan2(
                 np.where(flipped, -1.0, 1.0) * m[..., 1, 0],
@@ -157,7 +157,7 @@ class LBRiiwa(DHChain):
         """Joints ``(..., 7)`` rad putting the flange on ``pose`` ``(..., 4, 4)``, near ``q_ref``.
 
         Joint 3 is held at ``q_ref[..., 2]``; among the reached configurations
-        within the limits, seed 004's quality function picks the one with the
+        within the limits, the tutorial's quality function picks the one with the
         smallest sum of |q - q_ref| (``q_ref`` wrapped to [-pi, pi)). Where
         none qualifies, the numerical ``DHChain.inverse`` (all seven joints
         free) takes over; ``ok`` is False where that fails too.

@@ -1,4 +1,4 @@
-"""Joint-space motion profiles for external axes (seed 003's ``movej`` and ``speedj``).
+"""Joint-space motion profiles for external axes (MotionPlus ``axis_group_movej``, ``speedj``).
 
 Positions are in rad (rotary) or m (linear), velocities per second and
 accelerations per second squared; time ``t`` is in seconds from the start of
@@ -103,7 +103,7 @@ def _positions(value: npt.ArrayLike, what: str) -> Array:
 
 @dataclass(frozen=True, eq=False)
 class TrapezoidMove(_VelocityRamps):
-    """Synchronized trapezoidal move from ``start`` to ``end`` (seed 003 ``axis_group_movej``).
+    """Synchronized trapezoidal move from ``start`` to ``end`` (MotionPlus ``axis_group_movej``).
 
     All axes accelerate for ``accel_time``, cruise for ``cruise_time`` and
     decelerate for ``accel_time``, together, so they arrive at the same time
@@ -211,7 +211,7 @@ def plan_movej(
 
 @dataclass(frozen=True, eq=False)
 class SpeedMove(_VelocityRamps):
-    """Velocity ramp and hold (seed 003 ``axis_group_speedj``).
+    """Velocity ramp and hold (MotionPlus ``axis_group_speedj``).
 
     Velocities go linearly from ``initial_velocity`` to ``target_velocity`` in
     ``ramp_time``; all axes reach it together, the axis needing the longest

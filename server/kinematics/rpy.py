@@ -1,4 +1,4 @@
-"""Roll, pitch and yaw angles (seed 004, formulas [8] and [9]), batch-first.
+"""Roll, pitch and yaw angles (the KUKA LBR arm tutorial's formulas [8] and [9]), batch-first.
 
 Convention: ``rpy = (roll, pitch, yaw)`` in radians, rotations about the fixed
 X, Y and Z axes in that order, so ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (the same
@@ -41,8 +41,8 @@ def rpy_from_matrix(rot: npt.ArrayLike) -> Array:
     """Angles ``(..., 3)`` = (roll, pitch, yaw) rad of rotations ``(..., 3, 3)``, formula [9].
 
     Pitch is in [-pi/2, pi/2], roll and yaw in [-pi, pi]. At pitch = +-90 deg
-    only yaw -/+ roll is defined; as in the seed, roll is then 0 and yaw
-    carries the whole turn. (The seed's +90 deg branch drops the sign of yaw;
+    only yaw -/+ roll is defined; as in the tutorial, roll is then 0 and yaw
+    carries the whole turn. (The tutorial's +90 deg branch drops the sign of yaw;
     this one keeps the matrix: ``matrix_from_rpy(rpy_from_matrix(R)) == R``.)
     """
     m = np.asarray(rot, dtype=np.float64)

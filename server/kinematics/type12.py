@@ -1,8 +1,10 @@
-"""IndraMotion kinematic Type 12: a planar five-bar parallel mechanism (seed 000).
+"""IndraMotion MLC kinematic Type 12: a planar five-bar parallel mechanism.
+
+As Bosch Rexroth's note "ctrlX CORE: CODESYS SoftMotion" implements it.
 
 Frame: the robot base, Z up; the mechanism moves in the base XY plane (z = 0).
 Units: metres and radians. Joint ``a0`` turns link L1, joint ``a1`` turns L5;
-both are zero in the seed's reference posture, where O, T, E, W form a
+both are zero in the note's reference posture, where O, T, E, W form a
 parallelogram (E = T + W).
 
 Each link pose puts the link's frame at its pivot with local +X pointing along
@@ -38,7 +40,7 @@ def _circle_circle_xy(
     dist = np.hypot(dx, dy)
     safe = np.where(dist > 0.0, dist, 1.0)
     cos_t = (dist**2 + r0**2 - r1**2) / (2.0 * safe * r0)
-    # The seed states 0 < cos < 1; geometrically the circles meet for |cos| <= 1
+    # The note states 0 < cos < 1; geometrically the circles meet for |cos| <= 1
     # (an obtuse angle at c0 is a valid posture), so that is the test used here.
     ok = (dist > 0.0) & (np.abs(cos_t) <= 1.0)
     cos_t = np.clip(cos_t, -1.0, 1.0)
@@ -52,10 +54,10 @@ def _circle_circle_xy(
 def circle_circle_intersection(
     c0: Array, r0: float, c1: Array, r1: float, direction: int
 ) -> tuple[Array, BoolArray]:
-    """One intersection point of two circles, seed 000 appendix 5.1.
+    """One intersection point of two circles, the CODESYS SoftMotion note's appendix 5.1.
 
     Law of cosines at ``c0``: the point on circle 0 towards ``c1`` is turned by
-    ``direction * theta`` (+1 the seed's left-hand, -1 its right-hand solution).
+    ``direction * theta`` (+1 the note's left-hand, -1 its right-hand solution).
     ``ok`` is False where the circles do not meet; there the point is ``c0``,
     never NaN. Centres have shape ``(..., 2)``.
     """
@@ -67,7 +69,7 @@ def circle_circle_intersection(
 
 @dataclass(frozen=True)
 class Type12:
-    """Type 12 mechanism; link lengths in metres (default: the seed's 200/150/100/200/100 mm)."""
+    """Type 12 mechanism; link lengths in metres (default: the note's 200/150/100/200/100 mm)."""
 
     l1: float = 0.2
     l2: float = 0.15
@@ -79,11 +81,11 @@ class Type12:
     link_names = LINK_NAMES
 
     def params(self) -> dict[str, float]:
-        """Link lengths (m) keyed as in the seed: L1..L5."""
+        """Link lengths (m) keyed as in the note: L1..L5."""
         return {"L1": self.l1, "L2": self.l2, "L3": self.l3, "L4": self.l4, "L5": self.l5}
 
     def _points_xy(self, q: Array) -> tuple[list[Array], BoolArray]:
-        """x and y (m, base XY) of T, W, E and the TCP for joints ``q`` (rad), seed AxesToCartesian.
+        """x and y (m, base XY) of T, W, E and the TCP for joints ``q`` (rad): AxesToCartesian.
 
         Separate x and y arrays: ``forward`` is a hot batch path and stacking
         pairs costs more than the maths. Non-finite joints are computed as zero
@@ -94,12 +96,12 @@ class Type12:
         if not np.isfinite(q).all():
             finite = np.asarray(np.isfinite(q).all(axis=-1), dtype=bool)
             q = np.where(finite[..., None], q, 0.0)
-        # T at angle a0 + 180 deg and W at a1 + 270 deg (seed), by identities
+        # T at angle a0 + 180 deg and W at a1 + 270 deg (the note), by identities
         # rather than shifted angles: two passes fewer, and exact at the zero posture.
         a0, a1 = q[..., 0], q[..., 1]
         tx, ty = -self.l1 * np.cos(a0), -self.l1 * np.sin(a0)
         wx, wy = self.l5 * np.sin(a1), -self.l5 * np.cos(a1)
-        # E: circles (T, L3) and (W, L4), the seed's right-hand solution.
+        # E: circles (T, L3) and (W, L4), the note's right-hand solution.
         ex, ey, ok = _circle_circle_xy(tx, ty, self.l3, wx, wy, self.l4, -1)
         ok &= finite
         scale = self.l2 / self.l3
@@ -109,7 +111,7 @@ class Type12:
     def forward(self, q: Array) -> tuple[Array, BoolArray]:
         """TCP poses ``(..., 4, 4)`` for joints ``q`` of shape ``(..., 2)`` (rad).
 
-        The TCP keeps the base orientation (the seed sets a zero rotation).
+        The TCP keeps the base orientation (the note sets a zero rotation).
         ``ok`` is False where the links cannot close or a joint is not finite;
         the pose there is finite but meaningless.
         """
@@ -141,10 +143,10 @@ class Type12:
     def inverse(self, pose: Array, q_ref: Array | None = None) -> tuple[Array, BoolArray]:
         """Joints ``(..., 2)`` (rad, in [-pi, pi)) putting the TCP at ``pose`` ``(..., 4, 4)``.
 
-        ``q_ref`` is accepted for a uniform interface and not used: the seed's
+        ``q_ref`` is accepted for a uniform interface and not used: the note's
         branch choices give one solution.
 
-        Seed CartesianToAxes: T from circles (O, L1) and (TCP, L2) with the
+        The note's CartesianToAxes: T from circles (O, L1) and (TCP, L2) with the
         right-hand branch, E on the bar, W from circles (O, L5) and (E, L4)
         with the left-hand branch. Only the XY position is used.
         """

@@ -9,7 +9,7 @@ Nodes (``<axis>`` and ``<group>`` from the machine):
   number to move it) and ``cmd/reset``;
 * ``motion/grp/<group>/cmd/pos-abs``: write ``{"axsPos": [...]}`` to move a group;
   ``motion/grp/<group>/cmd/reset``;
-* ``plc/app/Application/sym/PLC_PRG/...``: plain variables (the seed's ``dTest``
+* ``plc/app/Application/sym/PLC_PRG/...``: plain variables (the CODESYS SoftMotion note's ``dTest``
   among them), more can be added with ``add_variable``;
 * ``datalayer/...``: the data layer's own nodes (``_system_nodes``).
 

@@ -1,7 +1,7 @@
 """The machine an embedded mock simulates for one source: exactly the nodes its robots read.
 
 Each robot becomes one axis group of the mock, moving in synchronised
-trapezoids (seed 003's ``movej``) between targets within its joint limits:
+trapezoids (MotionPlus ``axis_group_movej``) between targets within its joint limits:
 the cell's ``demo_targets`` if given, else targets drawn from a generator
 seeded by the robot's name (the same cell always moves the same way).
 Everything here is in the nodes' units, as the mock serves them.
