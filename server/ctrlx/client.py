@@ -24,6 +24,8 @@ from .values import BulkRead, bulk_values, number_from_data, numbers_from_data
 
 log = logging.getLogger(__name__)
 
+NAME_MISMATCH = frozenset({62, 64})
+"""OpenSSL's X509_V_ERR_HOSTNAME_MISMATCH and X509_V_ERR_IP_ADDRESS_MISMATCH."""
 REFUSED = frozenset({404, 405, 501})
 """Statuses with which a server says it has no such service at all."""
 
@@ -275,6 +277,11 @@ class DataLayerClient:
         reason = getattr(exc.certificate_error, "verify_message", None) or exc.certificate_error
         peer = await peer_certificate(self.base_url, self.timeout_s)
         presents = f"it presents {peer}" if peer else "its certificate could not be fetched"
+        if getattr(exc.certificate_error, "verify_code", None) in NAME_MISMATCH:
+            return DataLayerError(
+                f"the TLS certificate of {self.base_url} is not made out to that name or "
+                f"address ({reason}); {presents}; use the host name the certificate names"
+            )
         if self.ca_file is None:
             return DataLayerError(
                 f"cannot verify the TLS certificate of {self.base_url} ({reason}); {presents}; "

@@ -23,10 +23,11 @@ from server.ctrlx import (
     client_ssl,
     follow,
 )
-from server.mock_ctrlx import Machine, build_app
+from server.mock_ctrlx import Machine, build_app, make_certificate
+from server.mock_ctrlx import serve as serve_mock
 from server.runtime import Runtime
 from server.runtime.startup import configured_cell, source_defaults
-from tests.conftest import wait_until
+from tests.conftest import free_port, wait_until
 from tests.ctrlx.helpers import IIWA, KIN12, client, collect, max_gap, running
 
 PUBLISH_S = 0.05
@@ -273,6 +274,20 @@ async def test_https_with_the_devices_certificate(tmp_path: Path) -> None:
         async with client(mock.url, ssl_context=ssl.create_default_context()) as c:
             with pytest.raises(DataLayerError, match="--ctrlx-ca"):
                 await c.read_number(KIN12[0])
+
+
+async def test_a_certificate_for_another_name_is_called_that(tmp_path: Path) -> None:
+    cert = make_certificate(tmp_path, hosts=("plc.example",))  # and 127.0.0.1, not localhost
+    port = free_port()
+    runner, _ = await serve_mock(build_app(), "127.0.0.1", port, cert.server_context())
+    try:
+        async with client(f"https://localhost:{port}", ca_file=cert.ca_file) as c:
+            with pytest.raises(DataLayerError) as caught:
+                await c.read_number(KIN12[0])
+    finally:
+        await runner.cleanup()
+    assert "is not made out to that name or address" in str(caught.value)
+    assert "CN=linkview mock ctrlX CORE (SHA-256 " in str(caught.value)
 
 
 async def test_insecure_works_but_warns(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
