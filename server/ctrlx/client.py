@@ -291,7 +291,7 @@ class DataLayerClient:
         return DataLayerError(
             f"the TLS certificate of {self.base_url} {match} the CA file {self.ca_file} "
             f"({reason}); {presents}; if that is the device's new certificate, put it in "
-            "that file (read again at every reconnect)"
+            "that file (it is read again at the next attempt)"
         )
 
     async def open_stream(
