@@ -9,7 +9,7 @@ import orjson
 
 from ..cell import Robot
 from ..kinematics import pose7_from_matrix
-from ..protocol import FRAMES_HEADER, FRAMES_KIND, ROBOT_HEADER
+from ..protocol import FLAG_OK, FLAG_SETPOINT, FRAMES_HEADER, FRAMES_KIND, ROBOT_HEADER
 from .types import Array, RobotSample
 
 # orjson rather than json: it serialises numpy arrays directly and is ~10x
@@ -19,6 +19,17 @@ _NO_FLOATS = np.zeros(0)
 _NO_TCP = np.zeros(7)
 MAX_ERROR_BYTES = 1024
 """Error texts are cut to this many bytes on the wire (protocol 2's field is 16 bits)."""
+
+
+@dataclass(frozen=True)
+class SetpointFrame:
+    """The setpoint's joints (SI) and poses, computed beside the actual ones."""
+
+    joints: Array
+    links: Array
+    """``(n_links, 7)``."""
+    tcp: Array
+    """``(7,)``."""
 
 
 @dataclass(frozen=True)
@@ -35,6 +46,8 @@ class RobotFrame:
     tcp: Array
     """``(7,)``; empty unless ``ok``."""
     error: str | None
+    setpoint: SetpointFrame | None = None
+    """Only where the robot reads setpoints, and only when both poses are ok."""
 
     @property
     def ok(self) -> bool:
@@ -43,20 +56,31 @@ class RobotFrame:
 
 
 def compute_frame(robot: Robot, sample: RobotSample) -> RobotFrame:
-    """Poses of every link and the TCP for ``sample``."""
+    """Poses of every link and the TCP for ``sample`` (and for its setpoints, if it has them)."""
     error = sample.error
     q: Array | None = None
     links: Array = _NO_FLOATS.reshape(0, 7)
     tcp: Array = _NO_FLOATS
+    setpoint: SetpointFrame | None = None
     if error is None and sample.values is not None:
         q = robot.to_si(sample.values)
-        link_poses, tcp_pose, ok = robot.poses(q)
-        if bool(ok):
-            links = pose7_from_matrix(link_poses)
-            tcp = links[-1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
+        # Actual and setpoint in one batch: one call into the kinematics, not two.
+        both = q if sample.setpoints is None else np.stack([q, robot.to_si(sample.setpoints)])
+        link_poses, tcp_pose, ok = robot.poses(both)
+        ok = np.atleast_1d(ok)
+        if bool(ok[0]):
+            all_links = pose7_from_matrix(link_poses).reshape(-1, link_poses.shape[-3], 7)
+            all_tcp = (
+                all_links[:, -1]
+                if robot.tcp_is_last_link
+                else pose7_from_matrix(tcp_pose).reshape(-1, 7)
+            )
+            links, tcp = all_links[0], all_tcp[0]
+            if len(ok) == 2 and bool(ok[1]):
+                setpoint = SetpointFrame(both[1], all_links[1], all_tcp[1])
         else:
             error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"
-    return RobotFrame(robot, sample.seq, sample.t_source, q, links, tcp, error)
+    return RobotFrame(robot, sample.seq, sample.t_source, q, links, tcp, error, setpoint)
 
 
 def encode_json(frame: RobotFrame, t_sent: float) -> str:
@@ -73,6 +97,9 @@ def encode_json(frame: RobotFrame, t_sent: float) -> str:
         "ok": frame.ok,
         "error": frame.error,
     }
+    if frame.setpoint is not None:  # robots without setpoints send no key at all
+        sp = frame.setpoint
+        message["setpoint"] = {"joints": sp.joints, "links": sp.links, "tcp": sp.tcp}
     return orjson.dumps(message, option=_OPTS).decode()
 
 
@@ -86,10 +113,15 @@ def encode_binary(
         error = b"" if frame.error is None else _cut(frame.error.encode("utf-8"))
         links = frame.links if frame.ok else _NO_FLOATS
         tcp = frame.tcp if frame.ok else _NO_TCP
-        parts.append(ROBOT_HEADER.pack(index, frame.ok, len(joints), len(links), len(error)))
+        sp = frame.setpoint if frame.ok else None
+        flags = (FLAG_OK if frame.ok else 0) | (FLAG_SETPOINT if sp is not None else 0)
+        parts.append(ROBOT_HEADER.pack(index, flags, len(joints), len(links), len(error)))
         floats = np.concatenate([joints, links.reshape(-1), tcp]).astype("<f4")
         parts.append(floats.tobytes())
         parts.append(error)
+        if sp is not None:
+            floats = np.concatenate([sp.joints, sp.links.reshape(-1), sp.tcp]).astype("<f4")
+            parts.append(floats.tobytes())
     return b"".join(parts)
 
 
