@@ -104,10 +104,12 @@ async def _axis(client: DataLayerClient, name: str, notes: list[str]) -> Axis | 
     except DataLayerError as exc:
         notes.append(f"axis {name}: {node} cannot be read ({exc})")
         return None
-    unit = _text(meta.get("unit")) or await _object_text(client, f"{base}/state/values/actual", "actualPosUnit")
+    unit = _text(meta.get("unit")) or await _object_text(
+        client, f"{base}/state/values/actual", "actualPosUnit"
+    )
     setpoint: str | None = f"{base}/{SETPOINT_POS}"
     try:
-        await client.metadata(setpoint)
+        await client.metadata(f"{base}/{SETPOINT_POS}")
     except DataLayerError:
         setpoint = None
     properties = await _object(client, f"{base}/cfg/properties")
@@ -130,7 +132,7 @@ async def _kinematics(client: DataLayerClient, name: str, notes: list[str]) -> K
     if not entries:
         notes.append(f"kinematics {name}: {KINEMATICS}/{name}/cfg names no axes")
         return None
-    entries.sort(key=lambda e: e.get("acsIndex") if isinstance(e.get("acsIndex"), int) else 255)
+    entries.sort(key=_acs_index)
     axes = tuple(str(e["axsName"]) for e in entries)
     sets = (config.get("mcs") or {}).get("axsTrafoSets") or []
     first = sets[0] if sets and isinstance(sets[0], dict) else {}
@@ -141,6 +143,11 @@ async def _kinematics(client: DataLayerClient, name: str, notes: list[str]) -> K
             if value is not None and param.get("name"):
                 params[str(param["name"])] = (value, _text(param.get("unit")) or "")
     return Kinematics(name, axes, _text(first.get("jntTrafo")), params)
+
+
+def _acs_index(entry: dict[str, Any]) -> int:
+    index = entry.get("acsIndex")
+    return index if isinstance(index, int) else 255  # the motion app's "none"
 
 
 async def _object(client: DataLayerClient, node: str) -> dict[str, Any]:

@@ -101,7 +101,7 @@ def _head(name: str, source: SourceSpec, index: int, what: str) -> list[str]:
         "[[robot]]",
         f"name = {_q(name)}",
         f"source = {_q(source.name)}",
-        f"# TODO: where the robot stands in the cell (mm, deg); set {SPACING_MM:g} mm apart to start.",
+        f"# TODO: where the robot stands in the cell (mm, deg); {SPACING_MM:g} mm apart for now.",
         f"base = {{ xyz = [{index * SPACING_MM:.1f}, 0.0, 0.0], rpy_deg = [0.0, 0.0, 0.0] }}",
     ]
 
@@ -138,13 +138,13 @@ def _kinematics_robot(
         lines += [
             f"# TODO: which URDF (or xacro) describes {kin.name}? linkview cannot compute the",
             f"# joint transformation {kin.trafo or '(none given)'}; joints follow the URDF's",
-            "# movable joints in file order (add `joint = \"...\"` to each entry otherwise).",
-            f"kinematics = {{ type = \"urdf\", file = {_q(name + '.urdf')} }}",
+            '# movable joints in file order (add `joint = "..."` to each entry otherwise).',
+            f'kinematics = {{ type = "urdf", file = {_q(name + ".urdf")} }}',
         ]
     else:
         lines += [
             f"# From the controller's {kin.trafo} parameters. TODO for meshes: a URDF instead,",
-            f"# kinematics = {{ type = \"urdf\", file = {_q(name + '.urdf')} }}",
+            f'# kinematics = {{ type = "urdf", file = {_q(name + ".urdf")} }}',
             f"kinematics = {table}",
         ]
     return [*lines, *_joints(axes)]
@@ -166,7 +166,7 @@ def _known_table(kin: Kinematics, axes: list[Axis]) -> str | None:
         if all(v is not None for row in rows.values() for v in row):
             return (
                 f'{{ type = "dh", d = {_list(rows["d"])}, a = {_list(rows["a"])}, '
-                f'alpha_deg = {_list(rows["alpha"])}, offset_deg = {_list(offsets)}{limits} }}'
+                f"alpha_deg = {_list(rows['alpha'])}, offset_deg = {_list(offsets)}{limits} }}"
             )
     return None
 

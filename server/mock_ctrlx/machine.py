@@ -94,7 +94,9 @@ class AxisGroup:
 
 TYPE12_TRAFO = Trafo(
     "IndraMotionType12",
-    tuple((f"L{i}", length, "mm") for i, length in enumerate((200.0, 150.0, 100.0, 200.0, 100.0), 1)),
+    tuple(
+        (f"L{i}", length, "mm") for i, length in enumerate((200.0, 150.0, 100.0, 200.0, 100.0), 1)
+    ),
     ("a0", "a1"),
 )
 """The IndraMotion MLC kinematic Type 12 (five-bar), with the demo cell's link lengths."""
