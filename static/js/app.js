@@ -140,7 +140,7 @@ class App {
 		switch ( message.type ) {
 
 			case 'hello': this._onHello( message ); break;
-			case 'frame': this.clock.observe( message.t_sent, arrival ); this.robots.queue( message, arrival ); break;
+			case 'frame': this.clock.observe( message.t_sent, arrival ); this._queue( message, arrival ); break;
 			case 'status': this.hud.setStatus( message ); break;
 			case 'cell': this.hud.setCell( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
@@ -163,13 +163,20 @@ class App {
 
 			}
 			// The same shape as a protocol-1 `frame` (links flat: 7 numbers per link).
-			this.robots.queue( {
+			this._queue( {
 				type: 'frame', robot: view.name, seq: frames.seq, t_source: frames.t_source, t_sent: frames.t_sent,
 				joints: entry.joints, links: entry.links, tcp: entry.tcp, ok: entry.ok, error: entry.error,
 				setpoint: entry.setpoint,
 			}, arrival );
 
 		}
+
+	}
+
+	_queue( frame, arrival ) {
+
+		this.following.received( frame, arrival );
+		this.robots.queue( frame, arrival );
 
 	}
 
@@ -242,7 +249,7 @@ class App {
 		for ( const frame of this.robots.applyPending( now ) ) {
 
 			const view = this.views.get( frame.robot );
-			this.following.applied( frame, now );
+			this.following.applied( frame );
 			const age = this.clock.ageMs( frame.t_source, now );
 			if ( age !== null ) view.latencyMs = view.latencyMs === null ? age : view.latencyMs + LATENCY_SMOOTHING * ( age - view.latencyMs );
 

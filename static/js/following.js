@@ -3,7 +3,7 @@ import { checkbox, element, setText } from './dom.js';
 import { displayScale, displayUnit, fixed } from './units.js';
 
 const WINDOW_MS = 10000; // the largest following error shown is over this long
-const KEPT = 600; // applied frames remembered per robot (about 10 s at 60 frames/s)
+const KEPT = 600; // samples remembered per robot (12 s at 50 per second)
 
 /**
  * Setpoint and actual, for robots whose joints name a setpoint node: a
@@ -78,14 +78,22 @@ class Following {
 
 	}
 
-	/** `frame` was just applied to its robot: move the ghost and note the error. */
-	applied( frame, timeMs ) {
+	/** `frame` was just applied to its robot: move the ghost to its setpoint pose. */
+	applied( frame ) {
+
+		const state = this._robots.get( frame.robot );
+		if ( ! state || state.ghost === null || ! frame.ok || ! frame.setpoint ) return;
+		state.ghost.setPoses( frame.setpoint.links, frame.setpoint.tcp );
+		state.ghost.group.visible = state.view.group.visible;
+
+	}
+
+	/** `frame` arrived (every one, before the render loop coalesces them): note the error. */
+	received( frame, timeMs ) {
 
 		const state = this._robots.get( frame.robot );
 		if ( ! state || state.ghost === null || ! frame.ok || ! frame.setpoint ) return;
 		const setpoint = frame.setpoint;
-		state.ghost.setPoses( setpoint.links, setpoint.tcp );
-		state.ghost.group.visible = state.view.group.visible;
 		const joints = Array.from( frame.joints, ( q, i ) => setpoint.joints[ i ] - q );
 		const tcp = Math.hypot( setpoint.tcp[ 0 ] - frame.tcp[ 0 ], setpoint.tcp[ 1 ] - frame.tcp[ 1 ], setpoint.tcp[ 2 ] - frame.tcp[ 2 ] );
 		state.history.push( { time: timeMs, t_source: frame.t_source, tcp, joints, actual: Array.from( frame.joints ), setpoint: Array.from( setpoint.joints ) } );
