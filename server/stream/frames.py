@@ -64,23 +64,31 @@ def compute_frame(robot: Robot, sample: RobotSample) -> RobotFrame:
     setpoint: SetpointFrame | None = None
     if error is None and sample.values is not None:
         q = robot.to_si(sample.values)
-        # Actual and setpoint in one batch: one call into the kinematics, not two.
-        both = q if sample.setpoints is None else np.stack([q, robot.to_si(sample.setpoints)])
-        link_poses, tcp_pose, ok = robot.poses(both)
-        ok = np.atleast_1d(ok)
-        if bool(ok[0]):
-            all_links = pose7_from_matrix(link_poses).reshape(-1, link_poses.shape[-3], 7)
-            all_tcp = (
-                all_links[:, -1]
-                if robot.tcp_is_last_link
-                else pose7_from_matrix(tcp_pose).reshape(-1, 7)
-            )
-            links, tcp = all_links[0], all_tcp[0]
-            if len(ok) == 2 and bool(ok[1]):
-                setpoint = SetpointFrame(both[1], all_links[1], all_tcp[1])
+        if sample.setpoints is None:
+            link_poses, tcp_pose, reached = robot.poses(q)
+            ok = bool(reached)
+            if ok:
+                links = pose7_from_matrix(link_poses)
+                tcp = links[-1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
         else:
+            links, tcp, ok, setpoint = _with_setpoint(robot, q, robot.to_si(sample.setpoints))
+        if not ok:
             error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"
     return RobotFrame(robot, sample.seq, sample.t_source, q, links, tcp, error, setpoint)
+
+
+def _with_setpoint(
+    robot: Robot, q: Array, q_set: Array
+) -> tuple[Array, Array, bool, SetpointFrame | None]:
+    """Actual links, TCP and ok, and the setpoint's frame (None if unreachable) in one batch."""
+    both = np.stack([q, q_set])  # one call into the kinematics, not two
+    link_poses, tcp_pose, ok = robot.poses(both)
+    if not bool(ok[0]):
+        return _NO_FLOATS.reshape(0, 7), _NO_FLOATS, False, None
+    links = pose7_from_matrix(link_poses)
+    tcp = links[:, -1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
+    setpoint = SetpointFrame(q_set, links[1], tcp[1]) if bool(ok[1]) else None
+    return links[0], tcp[0], True, setpoint
 
 
 def encode_json(frame: RobotFrame, t_sent: float) -> str:
