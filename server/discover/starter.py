@@ -107,6 +107,8 @@ def _head(name: str, source: SourceSpec, index: int, what: str) -> list[str]:
 
 
 def _joints(axes: list[Axis]) -> list[str]:
+    # A robot's joints have setpoints all or none (docs/cell.md): keep them only if all do.
+    setpoints = all(axis.setpoint is not None for axis in axes)
     lines = ["joints = ["]
     for axis in axes:
         m = mapping(axis.unit, axis.kind)
@@ -122,7 +124,7 @@ def _joints(axes: list[Axis]) -> list[str]:
         entry = f"node = {_q(axis.node)}, unit = {_q(m.unit)}"
         if m.scale != 1.0:
             entry += f", scale = {m.scale!r}"
-        if axis.setpoint is not None:
+        if setpoints and axis.setpoint is not None:
             entry += f", setpoint = {_q(axis.setpoint)}"
         lines.append(f"    {{ {entry} }},")
     return [*lines, "]"]

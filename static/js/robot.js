@@ -452,13 +452,14 @@ class RobotView {
 				const poses = flatPoses( links );
 				const count = Math.min( poses.length / POSE, nodes.length );
 				for ( let i = 0; i < count; i ++ ) setPose( nodes[ i ], poses, i * POSE );
-				if ( tcpPose && tcpPose.length === POSE ) setPose( tcp, tcpPose );
+				const withTcp = tcpPose !== null && tcpPose.length === POSE;
+				if ( withTcp ) setPose( tcp, tcpPose );
 				for ( const [ stick, from, to ] of sticks ) {
 
 					_a.copy( from.position );
 					_b.copy( to.position ).sub( _a );
 					const length = _b.length();
-					stick.visible = length > 1e-6;
+					stick.visible = length > 1e-6 && ( withTcp || to !== tcp ); // no TCP given: no stick to it
 					if ( ! stick.visible ) continue;
 					stick.position.copy( _a );
 					stick.quaternion.setFromUnitVectors( _up, _b.divideScalar( length ) );

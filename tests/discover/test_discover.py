@@ -210,3 +210,23 @@ async def frames_of_every_robot(url: str) -> tuple[dict[str, object], dict[int, 
                 if robot.ok and robot.setpoint is not None:
                     seen[robot.robot_index] = robot
     return hello, seen
+
+
+def test_setpoints_only_where_every_joint_has_one_and_unknown_units_are_todos(
+    tmp_path: Path,
+) -> None:
+    from server.discover import Axis, Controller
+
+    axes = (
+        Axis("arm_a", "motion/axs/arm_a/state/values/actual/pos", "deg", "ROTATIONAL", 1.0,
+             "motion/axs/arm_a/state/values/ipo/pos"),
+        Axis("arm_b", "motion/axs/arm_b/state/values/actual/pos", "grad", None, None, None),
+    )  # fmt: skip
+    text = starter_cell(Controller("http://plc", axes, ()), source_for("http://plc"), "test")
+    (robot,) = tomllib.loads(text)["robot"]
+    assert all("setpoint" not in joint for joint in robot["joints"])
+    assert "TODO: the controller gives the unit 'grad'" in text
+    path = tmp_path / "cell.toml"
+    path.write_text(text)
+    (loaded,) = load_cell(path, env=ENV, cache_dir=tmp_path).robots
+    assert loaded.setpoint_nodes == ()
