@@ -10,6 +10,7 @@ embedded mock, so the raw values the page shows can be compared with
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import urllib.request
@@ -48,7 +49,7 @@ def test_the_setpoint_ghost_leads_the_actual_pose_by_the_mocks_lag(
     with mock_process(free_port(), logs / "mock.log", "--lag-ms", lag_ms) as mock_url:
         found = subprocess.run(
             [sys.executable, "-m", "server", "discover", mock_url, "-o", str(cell)],
-            cwd=ROOT, env={**__import__("os").environ, **ENV},
+            cwd=ROOT, env={**os.environ, **ENV},
             text=True, capture_output=True, timeout=60,
         )  # fmt: skip
         assert found.returncode == 0, found.stderr
