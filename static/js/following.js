@@ -41,7 +41,7 @@ class Following {
 			const section = element( 'div', 'following-controls' );
 			section.append( box.label, readout );
 			card.append( section );
-			const state = { robot, view, box: box.input, readout, ghost: null, history: [], shownText: '' };
+			const state = { robot, view, box: box.input, readout, ghost: null, ghostJoints: null, history: [] };
 			this._robots.set( robot.name, state );
 			box.input.addEventListener( 'change', () => this.setOn( robot.name, box.input.checked ) );
 			if ( before.get( robot.name )?.wasOn ) {
@@ -63,9 +63,11 @@ class Following {
 		state.box.checked = on;
 		state.readout.hidden = ! on;
 		state.history = [];
+		state.ghostJoints = null;
 		if ( on ) {
 
 			state.ghost = state.view.makeGhost();
+			state.ghost.setLook( true, false ); // the stronger of the two ghost looks: it moves
 			state.ghost.group.visible = false; // until the first setpoint
 			this.world.add( state.ghost.group );
 
@@ -85,6 +87,7 @@ class Following {
 		if ( ! state || state.ghost === null || ! frame.ok || ! frame.setpoint ) return;
 		state.ghost.setPoses( frame.setpoint.links, frame.setpoint.tcp );
 		state.ghost.group.visible = state.view.group.visible;
+		state.ghostJoints = frame.setpoint.joints;
 
 	}
 
@@ -133,7 +136,11 @@ class Following {
 
 	}
 
-	/** For tests and the console: { on, ghostVisible, readout, largest, recent, ghostMatrices } of `name`, or null. */
+	/**
+	 * For tests and the console: { on, ghostVisible, readout, largest, recent (every frame
+	 * received: t_source, actual and setpoint joints), ghostJoints and ghostMatrices (the
+	 * setpoint drawn now) } of `name`, or null.
+	 */
 	shown( name ) {
 
 		const state = this._robots.get( name );
@@ -144,6 +151,7 @@ class Following {
 			readout: state.readout.hidden ? null : state.readout.textContent,
 			largest: this.largest( name, nowMs() ),
 			recent: state.history.map( ( entry ) => ( { t_source: entry.t_source, actual: entry.actual, setpoint: entry.setpoint } ) ),
+			ghostJoints: state.ghost === null || state.ghostJoints === null ? null : Array.from( state.ghostJoints ),
 			ghostMatrices: state.ghost === null ? null : state.ghost.linkMatrices(),
 		};
 

@@ -52,22 +52,26 @@ class MappingTables {
 			const table = element( 'table', 'mapping-table' );
 			table.setAttribute( 'aria-label', `node mapping of ${robot.name}` );
 			const head = element( 'tr' );
-			for ( const title of [ 'joint', 'node', 'raw', '× scale', '+ offset', '= value' ] ) head.append( element( 'th', null, title ) );
+			for ( const title of [ 'joint', 'raw', '× scale', '+ offset', '= value' ] ) head.append( element( 'th', null, title ) );
 			table.append( head );
+			// Two rows per joint: the numbers, then the node (long addresses get a line of their own).
 			const rows = robot.joints.map( ( joint ) => {
 
-				const row = element( 'tr' );
+				const row = element( 'tr', 'numbers' );
 				row.dataset.joint = joint.name;
-				const node = element( 'td', 'node' );
-				node.append( element( 'code', null, joint.node ) );
-				if ( joint.setpoint ) node.append( element( 'div', 'muted', `setpoint ${joint.setpoint}` ) );
 				const raw = element( 'td', 'raw', '—' );
 				const value = element( 'td', 'value', '—' );
 				row.append(
-					element( 'td', 'name', joint.name ), node, raw,
+					element( 'td', 'name', joint.name ), raw,
 					element( 'td', 'scale', String( joint.scale ) ), element( 'td', 'offset', String( joint.offset ) ), value,
 				);
-				table.append( row );
+				const where = element( 'tr', 'nodes' );
+				const node = element( 'td', 'node' );
+				node.colSpan = 5;
+				node.append( element( 'code', null, joint.node ) );
+				if ( joint.setpoint ) node.append( element( 'div', 'muted', `setpoint ${joint.setpoint}` ) );
+				where.append( node );
+				table.append( row, where );
 				return { joint, raw, value };
 
 			} );
