@@ -134,7 +134,11 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
 
         card = page.locator("article.robot[data-robot='broken'] details.robot-warnings")
         assert card.locator("summary").inner_text() == "1 warning"
-        assert "base.stl not found" in card.locator("li").inner_text()
+        assert not card.locator("li").is_visible()  # folded until asked for
+        card.locator("summary").click()
+        assert card.locator("li").inner_text() == missing
+        card.scroll_into_view_if_needed()
+        page.screenshot(path=str(ARTIFACTS / "corpus-warning.png"))
         assert page.locator("details.robot-warnings").count() == 1
         assert math.isfinite(page.evaluate("window.linkview.renderInfo.triangles"))
         watched.assert_clean()
