@@ -354,6 +354,13 @@ class RobotView {
 
 	}
 
+	/** How many links are drawn as ball-and-stick stand-ins (none where the robot brings meshes). */
+	get standIns() {
+
+		return this._sticks.length;
+
+	}
+
 	setShown( shown ) {
 
 		this.shown = shown;

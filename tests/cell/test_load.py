@@ -117,6 +117,34 @@ def test_a_missing_mesh_of_a_urdf_is_a_warning_from_check(tmp_path: Path) -> Non
     ]
 
 
+def test_a_xacro_file_with_args_loads_and_its_errors_name_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf.xacro").write_text(
+        '<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <xacro:arg name="lift" default="0.5"/>\n'
+        '  <link name="base"/><link name="top"/>\n'
+        '  <joint name="slide" type="prismatic"><parent link="base"/><child link="top"/>\n'
+        '    <axis xyz="0 0 1"/><limit lower="0" upper="$(arg lift)"/></joint>\n'
+        "</robot>\n"
+    )
+    robot = """
+    [[robot]]
+    name = "lifter"
+    source = "line1"
+    kinematics = { type = "urdf", file = "arm.urdf.xacro", args = { lift = "0.25" } }
+    joints = [ { node = "z", unit = "mm" } ]
+    """
+    path = write(tmp_path, SOURCE + textwrap.dedent(robot))
+    (lifter,) = load_cell(path, env={}, cache_dir=tmp_path / "cache").robots
+    assert lifter.joints[0].limits == (0.0, 0.25)
+    broken = (tmp_path / "arm.urdf.xacro").read_text().replace("</joint>", "</jiont>")
+    (tmp_path / "arm.urdf.xacro").write_text(broken)
+    (message,) = problems(path)
+    assert message.startswith(
+        f"robot[0].kinematics.file: {tmp_path / 'arm.urdf.xacro'}: malformed XML: "
+        "mismatched tag: line 5"
+    ), message
+
+
 def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
     (tmp_path / "meshes").mkdir()
     for link in ("L1", "L5", "L4"):  # L2 is missing

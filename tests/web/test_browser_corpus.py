@@ -131,6 +131,11 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
                 r, g, b = (everything[diff][:, c] for c in range(3))
                 assert int(((r > 150) & (r > g + 40) & (g > b)).sum()) > MIN_PIXELS
         assert all(count > MIN_PIXELS for count in changed.values()), changed
+        # Links without a visual draw nothing: no ball-and-stick beside the meshes.
+        stand_ins = page.evaluate(
+            "names => names.map(n => window.linkview.robotState(n).standIns)", names
+        )
+        assert stand_ins == [0] * len(names)
 
         card = page.locator("article.robot[data-robot='broken'] details.robot-warnings")
         assert card.locator("summary").inner_text() == "1 warning"
