@@ -10,7 +10,7 @@ workspace's ``src`` folder copied whole, needs no ``packages`` at all.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 
@@ -78,12 +78,13 @@ class Packages:
         return found
 
 
-def resolve_mesh(uri: str, link: str, urdf_dir: Path, packages: Packages) -> Path:
+def resolve_mesh(uri: str, link: str, folders: Sequence[Path], packages: Packages) -> Path:
     """The file that mesh ``uri`` of ``link`` names; UrdfError if it is unknown or missing.
 
     ``package://name/rest`` is ``rest`` in package ``name``; ``file://`` URIs and
     absolute paths are taken as they are; relative paths are relative to the
-    description's folder.
+    first of ``folders`` (the description's, then those of the files it
+    includes) that has the file.
     """
     if uri.startswith("package://"):
         name, _, rest = uri[len("package://") :].partition("/")
@@ -97,8 +98,11 @@ def resolve_mesh(uri: str, link: str, urdf_dir: Path, packages: Packages) -> Pat
         raise UrdfError(
             f"link {link!r}: mesh {uri!r}: only package://, file:// and file paths are supported"
         )
+    elif Path(uri).is_absolute():
+        path = Path(uri)
     else:
-        path = Path(uri) if Path(uri).is_absolute() else urdf_dir / uri
+        found = [folder / uri for folder in folders if (folder / uri).is_file()]
+        path = found[0] if found else folders[0] / uri
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise UrdfError(
             f"link {link!r}: mesh {uri!r} has an unsupported format; use "

@@ -12,6 +12,7 @@ import threading
 import xml.parsers.expat
 from collections.abc import Mapping
 from contextlib import redirect_stderr
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,8 +28,18 @@ def is_xacro(path: Path) -> bool:
     return path.suffix.lower() == XACRO_SUFFIX
 
 
-def expand(path: Path, args: Mapping[str, str], packages: Packages) -> tuple[str, list[str]]:
-    """The URDF text that xacro file ``path`` expands to with ``args``, and what xacro warned.
+@dataclass(frozen=True)
+class Expanded:
+    """A xacro file's URDF text, the files it included, and what xacro warned about."""
+
+    text: str
+    """As the ``xacro`` command prints it, so line numbers match its output."""
+    included: tuple[Path, ...]
+    warnings: tuple[str, ...]
+
+
+def expand(path: Path, args: Mapping[str, str], packages: Packages) -> Expanded:
+    """What xacro file ``path`` expands to with ``args``.
 
     UrdfError names the file xacro was reading when it failed and xacro's own
     message (which gives the line for malformed XML).
@@ -50,10 +61,12 @@ def expand(path: Path, args: Mapping[str, str], packages: Packages) -> tuple[str
     with _LOCK:
         saved = sub._eval_find, sub._eval_dict["find"]
         sub._eval_find = sub._eval_dict["find"] = find
+        xacro.all_includes = []
         try:
             with redirect_stderr(stderr):
                 doc = xacro.process_file(str(path), mappings={k: str(v) for k, v in args.items()})
-            text = str(doc.toxml())
+            text = str(doc.toprettyxml(indent="  "))
+            included = tuple(Path(name) for name in dict.fromkeys(xacro.all_includes))
         except Exception as exc:  # xacro evaluates the file's expressions: any error is the file's
             where = (xacro.filestack or [None])[-1] or path
             kind = "malformed XML" if isinstance(exc, xml.parsers.expat.ExpatError) else "xacro"
@@ -63,4 +76,4 @@ def expand(path: Path, args: Mapping[str, str], packages: Packages) -> tuple[str
         finally:
             sub._eval_find, sub._eval_dict["find"] = saved
     warnings = [f"{path}: xacro: {line}" for line in stderr.getvalue().splitlines() if line.strip()]
-    return text, warnings
+    return Expanded(text, included, tuple(warnings))

@@ -100,12 +100,14 @@ class _Reader:
         self.packages = packages
         self.args = args
         self.expanded = False
+        self.folders = [path.parent]
+        """Where relative mesh paths are looked for: the file's folder, then its includes'."""
         self.warnings: list[str] = []
 
     def where(self, el: Any) -> str:
         """Where ``el`` is, for messages: the file and line (of the expanded text for xacro)."""
         if self.expanded:
-            return f"{self.path}, line {el.sourceline} of its xacro expansion"
+            return f"{self.path}, line {el.sourceline} of its xacro output"
         return f"{self.path}, line {el.sourceline}"
 
     def root(self) -> Any:
@@ -122,10 +124,11 @@ class _Reader:
         return self._expand() if _xml.uses_xacro(root) else root
 
     def _expand(self) -> Any:
-        text, warnings = _xacro.expand(self.path, self.args, self.packages)
-        self.warnings += warnings
+        expanded = _xacro.expand(self.path, self.args, self.packages)
+        self.warnings += expanded.warnings
         self.expanded = True
-        return _xml.parse(text.encode(), f"{self.path} (expanded by xacro)")
+        self.folders += [f.parent for f in expanded.included if f.parent not in self.folders]
+        return _xml.parse(expanded.text.encode(), f"{self.path} (expanded by xacro)")
 
     def locate(self, message: str, cleaned: _xml.Cleaned) -> str:
         """``message`` prefixed with where the first joint or link it names is."""
@@ -138,7 +141,7 @@ class _Reader:
     def geometry(self, geometry: Any, link: str) -> Geometry:
         if geometry.mesh is not None:
             uri = geometry.mesh.filename or ""
-            path = resolve_mesh(uri, link, self.path.parent, self.packages)
+            path = resolve_mesh(uri, link, self.folders, self.packages)
             return MeshGeometry(path, _scale(geometry.mesh.scale), uri)
         if geometry.box is not None:
             size = np.asarray(geometry.box.size, dtype=np.float64)

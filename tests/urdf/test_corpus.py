@@ -54,8 +54,7 @@ def pinocchio_model(robot: Described) -> pin.Model:
     data = robot.path.read_bytes()
     if is_xacro(robot.path) or uses_xacro(parse(data, str(robot.path))):
         packages = Packages(robot.package_folders, robot.path.parent)
-        text, _ = expand(robot.path, robot.args, packages)
-        return pin.buildModelFromXML(text, mimic=True)
+        return pin.buildModelFromXML(expand(robot.path, robot.args, packages).text, mimic=True)
     return pin.buildModelFromUrdf(str(robot.path), mimic=True)
 
 
@@ -140,3 +139,45 @@ def test_check_passes_on_a_cell_of_the_whole_corpus(tmp_path: Path, cache: Path)
     assert len(lines) == len(CORPUS) and "warning" not in result.stdout, result.stdout
     for robot, line in zip(CORPUS, lines, strict=True):
         assert line.startswith(f"{cell}: {robot.name}: urdf, "), line
+
+
+def test_a_legged_robot_on_a_floating_root(tmp_path: Path) -> None:
+    # As a simulation scene puts it into a world: the vendor's file included unchanged
+    # (its relative mesh paths still resolve from its own folder), its trunk hung from
+    # the world by a floating joint.
+    a1 = next(robot for robot in CORPUS if robot.name == "a1")
+    scene = tmp_path / "a1_in_world.urdf.xacro"
+    scene.write_text(
+        '<robot name="a1_world" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <link name="world"/>\n'
+        '  <joint name="world_to_trunk" type="floating">\n'
+        '    <parent link="world"/><child link="trunk"/>\n'
+        '    <origin xyz="0.2 0.1 0.35" rpy="0 0 0.5"/>\n'
+        "  </joint>\n"
+        f'  <xacro:include filename="{a1.path}"/>\n'
+        "</robot>\n"
+    )
+    robot = load_urdf(scene, a1.package_folders)
+    (warning,) = robot.warnings
+    # Line 8 of what `xacro a1_in_world.urdf.xacro` prints (after its 4-line banner).
+    assert warning.startswith(f"{scene}, line 8 of its xacro output: joint 'world_to_trunk'")
+    assert "is floating: it is drawn fixed at its origin" in warning
+    assert robot.link_names[:2] == ("world", "trunk") and len(robot.joint_names) == 12
+    model = pin.buildModelFromXML(expand(scene, {}, Packages({}, tmp_path)).text, mimic=True)
+    assert model.joints[model.getJointId("world_to_trunk")].shortname() == "JointModelFreeFlyer"
+    data = model.createData()
+    rng = np.random.default_rng(1)
+    chain = robot.chain
+    for _ in range(CONFIGS):
+        q = rng.uniform(chain.limits[:, 0], chain.limits[:, 1])
+        poses, ok = chain.link_poses(q)
+        q_pin = pin.neutral(model)  # the free flyer at rest: where linkview fixes it
+        for name, value in zip(chain.joint_names, q, strict=True):
+            q_pin[model.joints[model.getJointId(name)].idx_q] = value
+        pin.framesForwardKinematics(model, data, q_pin)
+        for k, name in enumerate(chain.link_names):
+            theirs = data.oMf[model.getFrameId(name, pin.BODY)]
+            assert np.abs(poses[k][:3, 3] - theirs.translation).max() <= TOL_M
+            assert rotation_angle(poses[k][:3, :3], theirs.rotation) <= TOL_RAD
+    trunk = chain.link_poses(np.zeros(chain.n_joints))[0][1]
+    np.testing.assert_allclose(trunk[:3, 3], [0.2, 0.1, 0.35], atol=1e-12)

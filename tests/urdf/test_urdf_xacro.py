@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from server.urdf import MeshGeometry, UrdfError, load_urdf
+from server.urdf._paths import Packages
+from server.urdf._xacro import expand
 
 TOOL_STL = Path(__file__).parent / "fixtures" / "mesh_description" / "meshes" / "tool.stl"
 
@@ -131,8 +133,11 @@ def test_an_error_in_the_expanded_urdf_names_its_line(tmp_path: Path) -> None:
     )
     poses, _ = load_urdf(top).chain.link_poses(np.zeros(0))
     np.testing.assert_allclose(poses[1][:3, 3], [0, 0, 1])
+    # The line is the one the xacro command prints the <origin> on, arguments given.
+    output = expand(top, {"xyz": "0 1"}, Packages({}, tmp_path)).text.splitlines()
+    line = next(i for i, text in enumerate(output, 1) if "<origin" in text)
     with pytest.raises(
         UrdfError,
-        match=rf"^{top}, line \d+ of its xacro expansion: joint 'j': <origin xyz> must be 3",
+        match=rf"^{top}, line {line} of its xacro output: joint 'j': <origin xyz> must be 3",
     ):
         load_urdf(top, args={"xyz": "0 1"})
