@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 
 from ..cell import Cell, CellError, load_cell
 from ..config import Settings
 from ..paths import DEMO_CELL
 from .source import SourceDefaults
+
+log = logging.getLogger(__name__)
 
 
 def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
@@ -17,7 +20,11 @@ def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
     ``--ctrlx URL`` (with ``LINKVIEW_CTRLX_*``) points a one-source cell at a
     controller, which is how the demo cell meets real hardware without a file.
     """
-    return with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+    cell = load_cell(path or settings.cell or DEMO_CELL)
+    for robot in cell.robots:
+        for warning in robot.warnings:
+            log.warning("robot %s: %s", robot.name, warning)
+    return with_controller(cell, settings)
 
 
 def with_controller(cell: Cell, settings: Settings) -> Cell:
