@@ -71,6 +71,19 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="do not verify the controller's HTTPS certificate (not recommended)",
     )
+    look_back = parser.add_argument_group("look back (docs/recording.md)")
+    look_back.add_argument(
+        "--history", type=float, metavar="SECONDS", help="seconds the timeline reaches back (600)"
+    )
+    look_back.add_argument(
+        "--record", metavar="DIR", help="record every source to MCAP files in DIR"
+    )
+    look_back.add_argument(
+        "--replay", metavar="FILE", help="serve an MCAP recording as if live (--cell: its cell)"
+    )
+    look_back.add_argument(
+        "--foxglove", type=int, metavar="PORT", help="serve the data live to Foxglove on PORT"
+    )
     args = parser.parse_args(argv)
     overrides = {
         "host": args.host,
@@ -85,6 +98,10 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "ctrlx_api": args.api,
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
+        "history_s": args.history,
+        "record": args.record,
+        "replay": args.replay,
+        "foxglove_port": args.foxglove,
     }
     try:
         return Settings(**{k: v for k, v in overrides.items() if v is not None})

@@ -8,6 +8,7 @@ from pathlib import Path
 from ..cell import Cell, CellError, load_cell
 from ..config import Settings
 from ..paths import DEMO_CELL
+from ..recording import replay_cell
 from .source import SourceDefaults
 
 
@@ -16,7 +17,10 @@ def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
 
     ``--ctrlx URL`` (with ``LINKVIEW_CTRLX_*``) points a one-source cell at a
     controller, which is how the demo cell meets real hardware without a file.
+    With ``--replay FILE`` every source plays that recording instead.
     """
+    if settings.replay is not None:
+        return replay_cell(settings.replay, path or settings.cell)
     return with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
 
 
@@ -50,4 +54,5 @@ def source_defaults(settings: Settings) -> SourceDefaults:
         keepalive_s=settings.keepalive_s,
         timeout_s=settings.request_timeout_s,
         allow_commands=settings.allow_commands,
+        history_s=settings.history_s,
     )
