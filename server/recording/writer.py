@@ -17,6 +17,7 @@ from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 from ..cell import Cell
 from .encode import Encoded
 from .messages import (
+    LOG_TOPIC,
     SCENE_TOPIC,
     SCHEMAS,
     TF_TOPIC,
@@ -24,6 +25,7 @@ from .messages import (
     base_transforms,
     joints_schema,
     joints_topic,
+    log_message,
     nanoseconds,
     scene_update,
 )
@@ -66,6 +68,9 @@ class McapFile:
         robots = list(cell.robots)
         self.write([(SCENE_TOPIC, nanoseconds(t0), scene_update(robots, t0))])
         self.write([(TF_TOPIC, nanoseconds(t0), base_transforms(robots, t0))])
+        where = "the demo cell" if cell.path is None else str(cell.path)
+        note = log_message(t0, "info", "linkview", f"recording of {where}")
+        self.write([(LOG_TOPIC, nanoseconds(t0), note)])
 
     def _attach_cell(self, t0: float) -> None:
         path = self.cell.path
