@@ -27,18 +27,18 @@ function decodeWindow( buffer ) {
 	};
 	header.t = load( header.t );
 	header.seq = load( header.seq );
-	for ( const robot of header.robots ) {
+	for ( const entry of header.robots ) {
 
-		robot.jointCount = robot.joints.shape[ 1 ] ?? 0;
-		robot.linkCount = robot.links ? robot.links.shape[ 1 ] : 0;
-		for ( const key of [ 'ok', 'joints', 'tcp', 'links' ] ) robot[ key ] = load( robot[ key ] );
+		entry.jointCount = entry.joints.shape[ 1 ] ?? 0;
+		entry.linkCount = entry.links ? entry.links.shape[ 1 ] : 0;
+		for ( const key of [ 'ok', 'joints', 'tcp', 'links' ] ) entry[ key ] = load( entry[ key ] );
 
 	}
 	return header;
 
 }
 
-/** Every source's span (`from`, `to`, unix s) and the marks; null when the server says no. */
+/** Every kept's span (`from`, `to`, unix s) and the marks; null when the server says no. */
 async function fetchSummary() {
 
 	const response = await fetch( '/api/history' );
@@ -46,12 +46,12 @@ async function fetchSummary() {
 
 }
 
-/** A window of `source` from `from` to `to` (unix s) with link poses, decoded. */
-async function fetchWindow( source, from, to, poses = 'links' ) {
+/** A window of `kept` from `from` to `to` (unix s) with link poses, decoded. */
+async function fetchWindow( kept, from, to, poses = 'links' ) {
 
-	const query = new URLSearchParams( { source, from: String( from ), to: String( to ), poses } );
+	const query = new URLSearchParams( { kept, from: String( from ), to: String( to ), poses } );
 	const response = await fetch( `/api/history?${query}` );
-	if ( ! response.ok ) throw new Error( `history of ${source}: HTTP ${response.status}` );
+	if ( ! response.ok ) throw new Error( `history of ${kept}: HTTP ${response.status}` );
 	return decodeWindow( await response.arrayBuffer() );
 
 }

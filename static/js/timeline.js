@@ -43,8 +43,8 @@ class Timeline {
 		this.moment = null; // unix s shown while not live
 		this.liveT = null; // newest t_source seen on the stream
 		this.summary = null;
-		this.windows = new Map(); // source -> decoded window
-		this.shownIndex = new Map(); // source -> index of the sample applied last
+		this.windows = new Map(); // source name -> decoded window
+		this.shownIndex = new Map(); // source name -> index of the sample applied last
 		this.fetches = 0;
 		this._plotHistory = null; // JointHistory of the selected robot while not live
 		this._plotFilled = null;
@@ -311,24 +311,24 @@ class Timeline {
 
 		}
 		const generation = this._generation;
-		for ( const source of this.summary.sources ) {
+		for ( const kept of this.summary.sources ) {
 
-			if ( source.from === null ) continue;
-			const w = this.windows.get( source.name );
+			if ( kept.from === null ) continue;
+			const w = this.windows.get( kept.name );
 			const ahead = AHEAD_S * Math.max( 1, this.speed );
-			const covered = w && t >= w.from && ( t <= w.to - REFETCH_MARGIN_S * this.speed || w.to >= source.to ) && ! w.pending;
+			const covered = w && t >= w.from && ( t <= w.to - REFETCH_MARGIN_S * this.speed || w.to >= kept.to ) && ! w.pending;
 			if ( covered || ( w && w.pending ) ) continue;
 			const from = t - BACK_S;
 			const to = Math.min( t + ahead, from + 110 ); // the server gives at most 120 s of poses
 			const placeholder = w ? Object.assign( w, { pending: true } ) : { pending: true, t: new Float64Array( 0 ), robots: [], from: t, to: t };
-			this.windows.set( source.name, placeholder );
+			this.windows.set( kept.name, placeholder );
 			this.fetches ++;
-			fetchWindow( source.name, from, to ).then( ( window ) => {
+			fetchWindow( kept.name, from, to ).then( ( window ) => {
 
 				if ( generation !== this._generation ) return;
 				window.pending = false;
-				this.windows.set( source.name, window );
-				this.shownIndex.delete( source.name );
+				this.windows.set( kept.name, window );
+				this.shownIndex.delete( kept.name );
 				this._plotFilled = null;
 				this._show( true );
 
@@ -347,48 +347,48 @@ class Timeline {
 	_show( jump ) {
 
 		if ( this.moment === null ) return;
-		for ( const [ source, w ] of this.windows ) {
+		for ( const [ kept, w ] of this.windows ) {
 
 			if ( ! w.t.length ) continue;
 			const i = lastAtOrBefore( w.t, this.moment );
 			if ( i < 0 ) continue;
-			const last = this.shownIndex.get( source );
+			const last = this.shownIndex.get( kept );
 			if ( last === i && ! jump ) continue;
 			const contiguous = ! jump && last !== undefined && i > last && i - last < 400;
-			for ( const robot of w.robots ) {
+			for ( const entry of w.robots ) {
 
-				const view = this.app.robots.byIndex[ robot.index ];
+				const view = this.app.robots.byIndex[ entry.index ];
 				if ( ! view ) continue;
 				if ( ! contiguous ) {
 
 					view.trail.clear();
 					const first = lastAtOrBefore( w.t, this.moment - this.app.trailSeconds );
-					for ( let k = Math.max( 0, first ); k < i; k ++ ) this._apply( view, robot, w, k );
+					for ( let k = Math.max( 0, first ); k < i; k ++ ) this._apply( view, entry, w, k );
 
 				} else {
 
-					for ( let k = last + 1; k < i; k ++ ) this._apply( view, robot, w, k );
+					for ( let k = last + 1; k < i; k ++ ) this._apply( view, entry, w, k );
 
 				}
-				this._apply( view, robot, w, i );
+				this._apply( view, entry, w, i );
 
 			}
-			this.shownIndex.set( source, i );
+			this.shownIndex.set( kept, i );
 
 		}
 		this._fillPlot();
 
 	}
 
-	_apply( view, robot, w, k ) {
+	_apply( view, entry, w, k ) {
 
-		const links = robot.links ? robot.links.subarray( k * robot.linkCount * POSE, ( k + 1 ) * robot.linkCount * POSE ) : [];
-		const ok = robot.ok[ k ] === 1;
+		const links = entry.links ? entry.links.subarray( k * entry.linkCount * POSE, ( k + 1 ) * entry.linkCount * POSE ) : [];
+		const ok = entry.ok[ k ] === 1;
 		view.apply( {
 			type: 'frame', robot: view.name, seq: w.seq[ k ], t_source: w.t[ k ], t_sent: w.t[ k ],
-			joints: robot.joints.subarray( k * robot.jointCount, ( k + 1 ) * robot.jointCount ),
-			links, tcp: robot.tcp ? robot.tcp.subarray( k * POSE, ( k + 1 ) * POSE ) : [],
-			ok, error: ok ? null : ( robot.errors.findLast( ( [ at ] ) => at <= k )?.[ 1 ] ?? 'not ok' ),
+			joints: entry.joints.subarray( k * entry.jointCount, ( k + 1 ) * entry.jointCount ),
+			links, tcp: entry.tcp ? entry.tcp.subarray( k * POSE, ( k + 1 ) * POSE ) : [],
+			ok, error: ok ? null : ( entry.errors.findLast( ( [ at ] ) => at <= k )?.[ 1 ] ?? 'not ok' ),
 		}, w.t[ k ] * 1000 );
 
 	}
@@ -400,8 +400,8 @@ class Timeline {
 		if ( ! history || this.moment === null ) return;
 		const view = this.app.views.get( history.robot );
 		const w = view ? this.windows.get( view.info.source ) : null;
-		const robot = w ? w.robots.find( ( r ) => r.index === view.index ) : null;
-		if ( ! robot ) return;
+		const entry = w ? w.robots.find( ( r ) => r.index === view.index ) : null;
+		if ( ! entry ) return;
 		const i = lastAtOrBefore( w.t, this.moment );
 		const key = `${i}:${w.t.length}`;
 		if ( key === this._plotFilled ) return;
@@ -411,7 +411,7 @@ class Timeline {
 		const arrival = performance.timeOrigin + performance.now();
 		for ( let k = first; k <= i; k ++ ) {
 
-			history.add( robot.joints.subarray( k * robot.jointCount, ( k + 1 ) * robot.jointCount ), w.t[ k ] * 1000, arrival );
+			history.add( entry.joints.subarray( k * entry.jointCount, ( k + 1 ) * entry.jointCount ), w.t[ k ] * 1000, arrival );
 
 		}
 
