@@ -20,6 +20,7 @@ Poses = Literal["links", "tcp", "none"]
 BoolArray = npt.NDArray[np.bool_]
 UNREADABLE = "a joint node could not be read (see the marks)"
 UNREACHABLE = "unreachable posture"
+REASONS = ("", UNREADABLE, UNREACHABLE)
 
 
 @dataclass(frozen=True)
@@ -49,7 +50,7 @@ def robot_window(
     readable = np.isfinite(raw).all(axis=1)
     joints = robot.to_si(raw)
     ok: BoolArray = np.array(readable, dtype=bool)
-    reason = np.where(readable, "", UNREADABLE).astype(object)
+    reason = np.where(readable, 0, 1).astype(np.int8)  # an index into REASONS
     tcp = links = None
     if poses != "none":
         n, count = len(rows), len(robot.link_names)
@@ -67,21 +68,21 @@ def robot_window(
             else:
                 tcp_poses[good] = pose7_from_matrix(tcp_matrix[np.asarray(reachable, dtype=bool)])
             ok[bad] = False
-            reason[bad] = UNREACHABLE
+            reason[bad] = 2
         tcp = tcp_poses
         links = link_poses if poses == "links" else None
     return RobotWindow(robot, index, joints, ok, tcp, links, _runs(ok, reason))
 
 
-def _runs(ok: BoolArray, reason: npt.NDArray[np.object_]) -> list[tuple[int, str]]:
+def _runs(ok: BoolArray, reason: npt.NDArray[np.int8]) -> list[tuple[int, str]]:
     """Where each run of failing rows starts, with its reason."""
     runs: list[tuple[int, str]] = []
-    previous = ""
-    for i in np.flatnonzero(~ok):
-        text = str(reason[i])
-        if i == 0 or ok[i - 1] or text != previous:
-            runs.append((int(i), text))
-        previous = text
+    previous = 0
+    for i in np.flatnonzero(~ok).tolist():
+        code = int(reason[i])
+        if i == 0 or ok[i - 1] or code != previous:
+            runs.append((i, REASONS[code]))
+        previous = code
     return runs
 
 

@@ -120,29 +120,45 @@ class RobotFrames:
         return [j.name for j in self.robot.joints]
 
 
+_IDENTITY = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+
+
 def base_transforms(robots: list[Robot], t: float) -> bytes:
-    """``world`` -> each robot's base, as the cell places them."""
+    """``world`` -> each robot's base, as the cell places them (and fixed TCP frames)."""
     when = stamp(t)
     transforms = [_transform(when, WORLD, base_frame(r.name), list(r.base)) for r in robots]
+    for robot in robots:
+        if robot.tcp_is_last_link:  # the TCP is the last link's frame: no need to send it twice
+            frames = RobotFrames(robot)
+            transforms.append(_transform(when, frames.links[-1], frames.tcp, _IDENTITY))
     return bytes(FrameTransforms(transforms=transforms).encode())
 
 
 def link_transforms(frames: RobotFrames, t: Array, links: Array, tcp: Array) -> Iterator[bytes]:
-    """One encoded ``FrameTransforms`` per row: base -> every link, base -> TCP."""
+    """One encoded ``FrameTransforms`` per row: base -> every link, base -> TCP.
+
+    Where the TCP is the last link, its frame is fixed to it (``base_transforms``).
+    """
     links, tcp = quantized(links).tolist(), quantized(tcp).tolist()
     base, names, tcp_name = frames.base, frames.links, frames.tcp
+    with_tcp = not frames.robot.tcp_is_last_link
     for k, time in enumerate(t.tolist()):
         when = stamp(time)
         transforms = [
             _transform(when, base, name, pose) for name, pose in zip(names, links[k], strict=True)
         ]
-        transforms.append(_transform(when, base, tcp_name, tcp[k]))
+        if with_tcp:
+            transforms.append(_transform(when, base, tcp_name, tcp[k]))
         yield bytes(FrameTransforms(transforms=transforms).encode())
+
+
+JOINT_DECIMALS = 9
+"""Joint values are written to 1e-9 rad or m: shorter numbers, far below any encoder."""
 
 
 def joints_json(frames: RobotFrames, seq: int, t: float, q: list[float]) -> bytes:
     """``{"seq", "t_source", "position": {joint: value}}`` (rad or m)."""
-    position = dict(zip(frames.joint_names, q, strict=True))
+    position = {n: round(v, JOINT_DECIMALS) for n, v in zip(frames.joint_names, q, strict=True)}
     return orjson.dumps({"seq": seq, "t_source": t, "position": position})
 
 

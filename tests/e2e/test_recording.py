@@ -14,6 +14,7 @@ from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
 from server.config import Settings
+from server.ctrlx import Sample
 from server.history import History
 from server.paths import DEMO_CELL
 from server.protocol import Frames2
@@ -25,7 +26,7 @@ from tests.e2e.test_history import stream_frames
 ROBOTS = ("kin12", "iiwa7", "positioner")
 
 
-async def record(tmp_path: Path, seconds_of_frames: int = 60) -> tuple[Path, list[Frames2], Any]:
+async def record(tmp_path: Path, seconds_of_frames: int = 60) -> tuple[Path, list[Frames2]]:
     """Run the demo, watch its stream, save the history with the page's record button."""
     async with running_server(Settings()) as base, aiohttp.ClientSession() as http:
         frames = await stream_frames(base, seconds_of_frames)
@@ -35,9 +36,7 @@ async def record(tmp_path: Path, seconds_of_frames: int = 60) -> tuple[Path, lis
             assert "attachment" in r.headers["content-disposition"]
             path = tmp_path / "saved.mcap"
             path.write_bytes(await r.read())
-        async with http.get(f"{base}/api/robots") as r:
-            robots = await r.json()
-        return path, frames, (base, robots)
+        return path, frames
 
 
 def read(path: Path) -> tuple[Any, dict[str, list[tuple[int, Any]]]]:
@@ -87,7 +86,9 @@ async def test_a_saved_recording_opens_with_foxglove_schemas_poses_meshes_and_ce
 
     (scene,) = decode(path, "/scene")
     cell = configured_cell(Settings())
-    meshes = {f"{r.name}/{n}": m for r in cell.robots for n, m in zip(r.link_names, r.meshes)}
+    meshes = {
+        f"{r.name}/{n}": m for r in cell.robots for n, m in zip(r.link_names, r.meshes, strict=True)
+    }
     assert {e.frame_id for e in scene.entities} == set(meshes)
     for entity in scene.entities:
         (model,) = entity.models
@@ -111,16 +112,17 @@ async def test_a_saved_recording_opens_with_foxglove_schemas_poses_meshes_and_ce
             got = [tr.translation.x, tr.translation.y, tr.translation.z]
             got += [tr.rotation.x, tr.rotation.y, tr.rotation.z, tr.rotation.w]
             np.testing.assert_allclose(got, fk["links"][k][i], atol=2e-6, rtol=0)
-        tcp = transforms["iiwa7/tcp"]
-        np.testing.assert_allclose(
-            [tcp.translation.x, tcp.translation.y, tcp.translation.z], fk["tcp"][k][:3], atol=2e-6
-        )
-    base_frames = [m for m in decode(path, "/tf") if m.transforms[0].parent_frame_id == "world"]
-    assert {t.child_frame_id for t in base_frames[0].transforms} == {f"{r}/base" for r in ROBOTS}
+        # The arm's TCP is its last link: that frame carries it (fixed, below).
+        last = transforms[link_names[-1]].translation
+        np.testing.assert_allclose([last.x, last.y, last.z], fk["tcp"][k][:3], atol=2e-6)
+    (fixed,) = [m for m in decode(path, "/tf") if m.transforms[0].parent_frame_id == "world"]
+    parents = {t.child_frame_id: t.parent_frame_id for t in fixed.transforms}
+    assert {f"{r}/base" for r in ROBOTS} <= set(parents)
+    assert parents["iiwa7/tcp"] == link_names[-1] and cell.robots[1].tcp_is_last_link
 
 
 async def test_replay_serves_the_frames_the_stream_sent_when_recording(tmp_path: Path) -> None:
-    path, recorded, _ = await record(tmp_path, 60)
+    path, recorded = await record(tmp_path, 60)
     by_time = {f.t_source: f for f in recorded}
     async with running_server(Settings(replay=path)) as base, aiohttp.ClientSession() as http:
         replayed = await stream_frames(base, 80)
@@ -160,8 +162,6 @@ async def test_continuous_recording_rotates_files_that_a_reader_can_index(tmp_pa
     cell = configured_cell(Settings())
     source = history.source("demo", [n for r in cell.robots for n in r.nodes], 0.02)
     recorder = Recorder(history, lambda: cell, tmp_path / "rotated", max_file_bytes=1)
-    from server.ctrlx import Sample
-
     nodes = source.ring.nodes
     for step in range(3):
         for k in range(10):
