@@ -9,6 +9,7 @@ each file holds one cell, attached.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import datetime as dt
 import logging
 import time
@@ -69,10 +70,14 @@ class Recorder:
         try:
             await asyncio.to_thread(self._write, cell, sources, marks)
             self.error = None
-        except OSError as exc:  # a full disk must not stop the viewers
+        except Exception as exc:  # a full disk (or a bug) must not stop the viewers
             if self.error is None:
                 log.error("recording to %s failed: %s", self.folder, exc)
             self.error = str(exc)
+            broken, self.file = self.file, None  # a new file once writing works again
+            if broken is not None:
+                with contextlib.suppress(Exception):
+                    await asyncio.to_thread(broken.close)
 
     async def _finish(self) -> None:
         try:

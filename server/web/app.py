@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -23,6 +24,8 @@ from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
 from . import history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
+
+log = logging.getLogger(__name__)
 
 
 def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
@@ -84,8 +87,15 @@ async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio
         endpoint = FoxgloveEndpoint(
             runtime.history, lambda: runtime.cell, settings.host, settings.foxglove_port, token
         )
-        await endpoint.start()
-        tasks.append(asyncio.create_task(endpoint.run(), name="foxglove"))
+        try:
+            await endpoint.start()
+        except Exception as exc:  # a port in use must not keep the viewers from the cell
+            log.error(
+                "foxglove: cannot serve on %s:%d: %s", settings.host, settings.foxglove_port, exc
+            )
+            await endpoint.stop()
+        else:
+            tasks.append(asyncio.create_task(endpoint.run(), name="foxglove"))
     return tasks
 
 
