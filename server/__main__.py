@@ -143,7 +143,10 @@ def main(argv: list[str] | None = None) -> None:
     except CellError as exc:  # refuse to start, with the same message as `check`
         print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
         sys.exit(2)
-    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    where = ", ".join(
+        s.url or (f"{s.name} (replay of {s.replay})" if s.replay else f"{s.name} (embedded mock)")
+        for s in cell.sources
+    )
     print(
         f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )

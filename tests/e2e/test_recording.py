@@ -10,6 +10,7 @@ from typing import Any
 import aiohttp
 import numpy as np
 import orjson
+import pytest
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
@@ -173,3 +174,32 @@ async def test_continuous_recording_rotates_files_that_a_reader_can_index(tmp_pa
     assert len(files) == 3 == len(recorder.files)
     counts = [len(read(f)[1]["/kin12/joints"]) for f in files]
     assert counts == [10, 10, 10]
+
+
+def test_replay_needs_a_cell_it_can_find_and_says_so(tmp_path: Path) -> None:
+    import dataclasses
+    import subprocess
+    import sys
+
+    from server.cell import CellError
+    from server.recording import McapFile, replay_cell
+
+    missing = tmp_path / "nope.mcap"
+    with pytest.raises(CellError, match="no such file"):
+        replay_cell(missing)
+    demo = configured_cell(Settings())
+    anonymous = tmp_path / "anonymous.mcap"
+    McapFile(anonymous, dataclasses.replace(demo, path=None)).close()
+    with pytest.raises(CellError, match="give the cell with --cell"):
+        replay_cell(anonymous)
+    cell = replay_cell(anonymous, DEMO_CELL)
+    assert [s.replay for s in cell.sources] == [anonymous.resolve()]
+    assert all(s.url is None for s in cell.sources)
+    started = subprocess.run(
+        [sys.executable, "-m", "server", "--replay", str(missing), "--port", "0"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert started.returncode == 2 and "nope.mcap: (recording): no such file" in started.stderr
+    assert "Traceback" not in started.stderr
