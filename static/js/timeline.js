@@ -465,7 +465,7 @@ class Timeline {
 		const span = this.span();
 		if ( span && span.to > span.from ) {
 
-			const t = this.mode === 'live' ? span.to : this.moment;
+			const t = this.mode === 'live' ? Math.min( this.liveT ?? span.to, span.to ) : this.moment; // a replay's live edge is inside its span
 			if ( document.activeElement !== this.slider || force || this.mode === 'playing' ) {
 
 				this.slider.value = String( Math.round( ( ( t - span.from ) / ( span.to - span.from ) ) * 1000 ) );
