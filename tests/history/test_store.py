@@ -88,3 +88,18 @@ def test_write_many_keeps_the_newest() -> None:
     ring = SampleRing(("a",), 4)
     ring.write_many(np.arange(10), np.arange(10.0), np.arange(10.0).reshape(10, 1))
     assert ring.rows(0).t.tolist() == [6.0, 7.0, 8.0, 9.0] and ring.count == 10
+
+
+async def test_a_reload_is_marked_and_keeps_a_source_that_reads_the_same_nodes() -> None:
+    from server.runtime import Runtime
+    from tests.conftest import demo_cell
+
+    runtime = await Runtime.start(demo_cell())
+    try:
+        kept = runtime.history.sources["demo"]
+        assert len(runtime.history.marks) == 0
+        await runtime.apply(demo_cell())
+        assert [m.kind for m in runtime.history.marks.since(0.0)] == ["reload"]
+        assert runtime.history.sources["demo"] is kept
+    finally:
+        await runtime.stop()
