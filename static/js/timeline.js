@@ -2,8 +2,8 @@ import { fetchSummary, fetchWindow, lastAtOrBefore } from './history.js';
 import { JointHistory } from './plots.js';
 
 const SPEEDS = [ 0.25, 1, 4 ];
-const BACK_S = 12; // fetched before the moment: trails and the 10 s joint plots
-const AHEAD_S = 40; // and after it, for playing on
+const BACK_S = 11; // fetched before the moment: trails and the 10 s joint plots
+const AHEAD_S = 20; // and after it, for playing on (poses cost the server ~4 ms per robot-second)
 const REFETCH_MARGIN_S = 5;
 const SUMMARY_EVERY_MS = 2000;
 const UI_EVERY_MS = 100;
