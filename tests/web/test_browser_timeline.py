@@ -77,9 +77,9 @@ def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str
     state = page.get_by_role("status").filter(has_text="NOT LIVE")
     assert state.is_visible() and "paused at" in state.inner_text()
     assert page.evaluate("document.body.classList.contains('not-live')")
-    ARTIFACTS = ROOT / "tests" / "artifacts"
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / "timeline_paused.png"))
+    artifacts = ROOT / "tests" / "artifacts"
+    artifacts.mkdir(exist_ok=True)
+    page.screenshot(path=str(artifacts / "timeline_paused.png"))
 
     # Arrows step one sample; Live returns to the present.
     page.keyboard.press("ArrowRight")
