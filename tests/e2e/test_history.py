@@ -77,7 +77,6 @@ async def test_summary_bounds_and_bad_requests() -> None:
             summary = await response.json()
         (source,) = summary["sources"]
         assert source["name"] == "demo" and source["samples"] <= capacity
-        assert source["to"] - source["from"] < 1.0 * 1.25 + 0.1
         async with http.get(f"{base}/api/history", params={"source": "nope"}) as response:
             assert response.status == 404
         params = {"source": "demo", "from": "10", "to": "5"}
