@@ -111,7 +111,7 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
 
 
 def check(argv: list[str]) -> int:
-    """Check cell files: one line per robot, or every mistake with its key; the exit status."""
+    """Check cell files: one line per robot and its warnings, or every mistake; the exit status."""
     parser = argparse.ArgumentParser(prog="python -m server check", description=check.__doc__)
     parser.add_argument("files", nargs="+", metavar="FILE", help="cell files to check")
     status = 0
@@ -128,6 +128,8 @@ def check(argv: list[str]) -> int:
                 f"{name}: {robot.name}: {robot.family}, {len(robot.joints)} joints, "
                 f"source {robot.source}, {meshes} meshes"
             )
+            for warning in robot.warnings:
+                print(f"{name}: {robot.name}: warning: {warning}")
     return status
 
 

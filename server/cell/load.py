@@ -238,6 +238,7 @@ class _Builder:
             tcp_is_last_link=built.tcp_is_last_link,
             command_node=spec.command_node or DEFAULT_COMMAND_NODE.format(robot=spec.name),
             demo_targets=targets,
+            warnings=built.warnings,
         )
 
     def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:

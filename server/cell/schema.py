@@ -122,12 +122,16 @@ class AxisGroup(_Strict):
 
 
 class Urdf(_Strict):
-    """A URDF file; joints are its movable joints in file order."""
+    """A URDF or xacro file; joints are its movable joints in file order."""
 
     type: Literal["urdf"]
     file: str
+    """A ``.urdf``, or a ``.xacro`` / ``.urdf.xacro`` expanded with ``args``."""
     packages: dict[str, str] = {}
-    """``package://name/...`` -> folder (relative paths: relative to the cell file)."""
+    """ROS package -> folder, for ``package://name/...`` and ``$(find name)`` (relative
+    paths: relative to the cell file); packages not given are searched for above the file."""
+    args: dict[str, str] = {}
+    """xacro arguments, ``$(arg name)``."""
     tip: str | None = None
     """The TCP link; default: the last link of the longest chain."""
 

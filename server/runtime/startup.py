@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 
 from ..cell import Cell, CellError, load_cell
@@ -10,6 +11,8 @@ from ..config import Settings
 from ..paths import DEMO_CELL
 from ..recording import replay_cell
 from .source import SourceDefaults
+
+log = logging.getLogger(__name__)
 
 
 def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
@@ -20,8 +23,13 @@ def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
     With ``--replay FILE`` every source plays that recording instead.
     """
     if settings.replay is not None:
-        return replay_cell(settings.replay, path or settings.cell)
-    return with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+        cell = replay_cell(settings.replay, path or settings.cell)
+    else:
+        cell = with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+    for robot in cell.robots:
+        for warning in robot.warnings:
+            log.warning("robot %s: %s", robot.name, warning)
+    return cell
 
 
 def with_controller(cell: Cell, settings: Settings) -> Cell:

@@ -44,7 +44,7 @@ window.linkview = Object.freeze( {
 	robotState( name ) {
 
 		const view = app.robots.views.get( name );
-		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs } : null;
+		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns } : null;
 
 	},
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
