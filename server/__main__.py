@@ -72,6 +72,19 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="do not verify the controller's HTTPS certificate (not recommended)",
     )
+    look_back = parser.add_argument_group("look back (docs/recording.md)")
+    look_back.add_argument(
+        "--history", type=float, metavar="SECONDS", help="seconds the timeline reaches back (600)"
+    )
+    look_back.add_argument(
+        "--record", metavar="DIR", help="record every source to MCAP files in DIR"
+    )
+    look_back.add_argument(
+        "--replay", metavar="FILE", help="serve an MCAP recording as if live (--cell: its cell)"
+    )
+    look_back.add_argument(
+        "--foxglove", type=int, metavar="PORT", help="serve the data live to Foxglove on PORT"
+    )
     args = parser.parse_args(argv)
     overrides = {
         "host": args.host,
@@ -86,6 +99,10 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "ctrlx_api": args.api,
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
+        "history_s": args.history,
+        "record": args.record,
+        "replay": args.replay,
+        "foxglove_port": args.foxglove,
     }
     try:
         return Settings(**{k: v for k, v in overrides.items() if v is not None})
@@ -139,7 +156,10 @@ def main(argv: list[str] | None = None) -> None:
     except CellError as exc:  # refuse to start, with the same message as `check`
         print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
         sys.exit(2)
-    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    where = ", ".join(
+        s.url or (f"{s.name} (replay of {s.replay})" if s.replay else f"{s.name} (embedded mock)")
+        for s in cell.sources
+    )
     print(
         f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )

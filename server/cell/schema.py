@@ -48,6 +48,8 @@ class Source(_Strict):
     """Sample period; default: the server's setting (20 ms)."""
     allow_commands: bool = False
     """Let the page move this source's robots (embedded mocks always may)."""
+    replay: str | None = None
+    """A recording (MCAP, docs/recording.md) played as this source's data, instead of a device."""
 
 
 class Joint(_Strict):

@@ -91,6 +91,13 @@ window.linkview = Object.freeze( {
 		return { calls, triangles, lines };
 
 	},
+	/** The timeline: mode (live, paused, playing), the moment shown and the live edge (unix s). */
+	get timeline() {
+
+		const { mode, moment, liveT, speed, fetches } = app.timeline;
+		return { mode, moment, liveT, speed, fetches, span: app.timeline.span() };
+
+	},
 	get bannerChanges() {
 
 		return app.hud.banner.changes;
