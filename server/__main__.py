@@ -1,4 +1,4 @@
-"""``python -m server``: serve the viewer; ``python -m server check FILE``: check a cell file."""
+"""``python -m server``: serve the viewer; ``check FILE``: check a cell file; ``discover URL``."""
 
 from __future__ import annotations
 
@@ -29,7 +29,8 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
     """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags."""
     parser = argparse.ArgumentParser(
         prog="python -m server",
-        description="Serve the live 3D view. `python -m server check FILE` checks a cell file.",
+        description="Serve the live 3D view. `python -m server check FILE` checks a cell file; "
+        "`python -m server discover URL` writes one for a controller.",
     )
     parser.add_argument("--host", help="address to bind (default 127.0.0.1)")
     parser.add_argument("--port", type=int, help="port to bind (default 8000)")
@@ -75,6 +76,19 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="do not verify the controller's HTTPS certificate (not recommended)",
     )
+    look_back = parser.add_argument_group("look back (docs/recording.md)")
+    look_back.add_argument(
+        "--history", type=float, metavar="SECONDS", help="seconds the timeline reaches back (600)"
+    )
+    look_back.add_argument(
+        "--record", metavar="DIR", help="record every source to MCAP files in DIR"
+    )
+    look_back.add_argument(
+        "--replay", metavar="FILE", help="serve an MCAP recording as if live (--cell: its cell)"
+    )
+    look_back.add_argument(
+        "--foxglove", type=int, metavar="PORT", help="serve the data live to Foxglove on PORT"
+    )
     args = parser.parse_args(argv)
     overrides = {
         "host": args.host,
@@ -89,6 +103,10 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "ctrlx_api": args.api,
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
+        "history_s": args.history,
+        "record": args.record,
+        "replay": args.replay,
+        "foxglove_port": args.foxglove,
     }
     try:
         return Settings(**{k: v for k, v in overrides.items() if v is not None})
@@ -98,7 +116,7 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
 
 
 def check(argv: list[str]) -> int:
-    """Check cell files: one line per robot, or every mistake with its key; the exit status."""
+    """Check cell files: one line per robot and its warnings, or every mistake; the exit status."""
     parser = argparse.ArgumentParser(prog="python -m server check", description=check.__doc__)
     parser.add_argument("files", nargs="+", metavar="FILE", help="cell files to check")
     status = 0
@@ -115,7 +133,17 @@ def check(argv: list[str]) -> int:
             joints = plural(len(robot.joints), "joint")
             where = f"source {robot.source}"
             print(f"{name}: {robot.name}: {robot.family}, {joints}, {where}, {meshes}")
+            for warning in robot.warnings:
+                print(f"{name}: {robot.name}: warning: {warning}")
     return status
+
+
+def discover(argv: list[str]) -> int:
+    """Write a starter cell for a controller's axes and kinematics; the exit status."""
+    from .discover.cli import main as discover_main  # only this command needs it
+
+    setup_logging()
+    return discover_main(argv)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -123,6 +151,8 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["check"]:
         sys.exit(check(argv[1:]))
+    if argv[:1] == ["discover"]:
+        sys.exit(discover(argv[1:]))
     settings = parse_settings(argv)
     setup_logging()
     try:
@@ -153,7 +183,10 @@ def main(argv: list[str] | None = None) -> None:
         )
     app = create_app(settings, cell)
     config = server_config(app, settings.host, port, settings.client_timeout_s)
-    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    where = ", ".join(
+        s.url or (f"{s.name} (replay of {s.replay})" if s.replay else f"{s.name} (embedded mock)")
+        for s in cell.sources
+    )
     urls = browser_urls(settings.host, port)
     here = urls[0] if len(urls) == 1 else f"{urls[0]} here, or {' or '.join(urls[1:])} from others"
 

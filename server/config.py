@@ -49,6 +49,15 @@ class Settings(BaseSettings):
     request_timeout_s: float = Field(5.0, gt=0.0)
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
+    # Look back (docs/recording.md).
+    history_s: float = Field(600.0, gt=0.0, le=86_400.0)
+    """Seconds of samples every source keeps for the timeline (memory is allocated up front)."""
+    record: Path | None = None
+    """Folder to record every source to, as MCAP files (one per hour or 500 MB)."""
+    replay: Path | None = None
+    """An MCAP recording to serve as if live (with --cell: the cell to replay it with)."""
+    foxglove_port: int | None = Field(None, ge=0, le=65535)
+    """Serve the same data live over Foxglove's WebSocket protocol on this port (same host)."""
 
     @field_validator("ctrlx_url")
     @classmethod

@@ -17,8 +17,10 @@ from tests.conftest import free_port
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_server(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
-    """``python -m server ARGS`` from the repository root, its output captured."""
+def run_server(
+    *args: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``python -m server ARGS`` from the repository root (``env`` added), its output captured."""
     return subprocess.run(
         [sys.executable, "-m", "server", *args],
         cwd=ROOT,

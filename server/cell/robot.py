@@ -44,6 +44,8 @@ class Joint:
     offset: float = 0.0
     limits: tuple[float, float] | None = None
     """[lower, upper] in rad or m; None: unlimited."""
+    setpoint: str | None = None
+    """Node of the joint's setpoint (interpolated position), mapped as ``node`` is."""
 
     @property
     def si_unit(self) -> Literal["rad", "m"]:
@@ -78,6 +80,8 @@ class Robot:
     """Node taking ``{"axsPos": [...]}`` (node units) for a synchronised move."""
     demo_targets: tuple[tuple[float, ...], ...] = ()
     """Positions (node units) an embedded mock cycles through; empty: drawn within limits."""
+    warnings: tuple[str, ...] = ()
+    """What its description holds that cannot be shown as written (a missing mesh, ...)."""
 
     def poses(self, q: Array) -> tuple[Array, Array, BoolArray]:
         """Link poses ``(..., n, 4, 4)``, TCP ``(..., 4, 4)`` and ``ok`` for joints ``q`` (SI)."""
@@ -91,6 +95,16 @@ class Robot:
     def nodes(self) -> tuple[str, ...]:
         """Data-layer nodes of the joints, in joint order."""
         return tuple(j.node for j in self.joints)
+
+    @cached_property
+    def setpoint_nodes(self) -> tuple[str, ...]:
+        """Data-layer nodes of the joints' setpoints in joint order; empty when it has none."""
+        return tuple(j.setpoint for j in self.joints if j.setpoint is not None)
+
+    @cached_property
+    def followed(self) -> tuple[str, ...]:
+        """Every node this robot reads: the joints', then their setpoints'."""
+        return self.nodes + self.setpoint_nodes
 
     @cached_property
     def _affine(self) -> tuple[Array, Array]:
@@ -129,11 +143,21 @@ class Robot:
             commandable=commandable,
             params=self.kinematics.params(),
             joints=[
-                JointInfo(name=j.name, unit=j.si_unit, limits=list(j.limits) if j.limits else None)
+                JointInfo(
+                    name=j.name,
+                    unit=j.si_unit,
+                    limits=list(j.limits) if j.limits else None,
+                    node=j.node,
+                    source_unit=j.source_unit,
+                    scale=j.scale,
+                    offset=j.offset,
+                    setpoint=j.setpoint,
+                )
                 for j in self.joints
             ],
             links=[LinkInfo(name=n, mesh=self.mesh_url(i)) for i, n in enumerate(self.link_names)],
             base=list(self.base),
+            warnings=list(self.warnings),
         )
 
 

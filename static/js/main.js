@@ -44,7 +44,7 @@ window.linkview = Object.freeze( {
 	robotState( name ) {
 
 		const view = app.robots.views.get( name );
-		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs } : null;
+		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns } : null;
 
 	},
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
@@ -56,6 +56,18 @@ window.linkview = Object.freeze( {
 	get quality() {
 
 		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings } };
+
+	},
+	/** A robot's Mapping table: per joint { joint, node, setpoint, unit, scale, offset, raw, value } (text as shown). */
+	mapping( name ) {
+
+		return app.mapping.shown( name );
+
+	},
+	/** A robot's setpoint ghost: { on, ghostVisible, readout, largest, recent, ghostMatrices }, or null. */
+	following( name ) {
+
+		return app.following.shown( name );
 
 	},
 	/** The simulation panel: ghosts drawn, which is selected, jog requests sent. */
@@ -77,6 +89,13 @@ window.linkview = Object.freeze( {
 
 		const { calls, triangles, lines } = app.stage.renderer.info.render;
 		return { calls, triangles, lines };
+
+	},
+	/** The timeline: mode (live, paused, playing), the moment shown and the live edge (unix s). */
+	get timeline() {
+
+		const { mode, moment, liveT, speed, fetches } = app.timeline;
+		return { mode, moment, liveT, speed, fetches, span: app.timeline.span() };
 
 	},
 	get bannerChanges() {

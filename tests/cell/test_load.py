@@ -93,7 +93,7 @@ def test_a_malformed_urdf(tmp_path: Path) -> None:
     assert message.startswith('robot[0] "kin".kinematics.file: ') and "bad.urdf" in message
 
 
-def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
+def test_a_missing_mesh_of_a_urdf_is_a_warning_from_check(tmp_path: Path) -> None:
     urdf = (URDF_DIR / "urdf" / "arm6.urdf").read_text()
     (tmp_path / "arm.urdf").write_text(urdf.replace("meshes/base.stl", "meshes/gone.stl"))
     nodes = ", ".join(f'{{ node = "n{i}" }}' for i in range(6))
@@ -106,8 +106,46 @@ def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
     kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
     joints = [{nodes}]
     """
-    (message,) = problems(write(tmp_path, SOURCE + textwrap.dedent(robot)))
-    assert message.startswith('robot[0] "arm".kinematics.file: ') and "gone.stl" in message
+    path = write(tmp_path, SOURCE + textwrap.dedent(robot))
+    (arm,) = load_cell(path, env={}, cache_dir=tmp_path / "cache").robots
+    (warning,) = arm.warnings
+    assert "link 'base_link'" in warning and "gone.stl not found" in warning, warning
+    assert all(mesh is not None for mesh in arm.meshes[:-1])  # the base: a stand-in
+    assert arm.info().warnings == [warning]
+    checked = run_server("check", str(path), env={"LINKVIEW_CACHE_DIR": str(tmp_path / "c")})
+    assert checked.returncode == 0, checked.stderr
+    assert checked.stdout.splitlines() == [
+        f"{path}: arm: urdf, 6 joints, source line1, 7 meshes",
+        f"{path}: arm: warning: {warning}",
+    ]
+
+
+def test_a_xacro_file_with_args_loads_and_its_errors_name_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf.xacro").write_text(
+        '<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <xacro:arg name="lift" default="0.5"/>\n'
+        '  <link name="base"/><link name="top"/>\n'
+        '  <joint name="slide" type="prismatic"><parent link="base"/><child link="top"/>\n'
+        '    <axis xyz="0 0 1"/><limit lower="0" upper="$(arg lift)"/></joint>\n'
+        "</robot>\n"
+    )
+    robot = """
+    [[robot]]
+    name = "lifter"
+    source = "line1"
+    kinematics = { type = "urdf", file = "arm.urdf.xacro", args = { lift = "0.25" } }
+    joints = [ { node = "z", unit = "mm" } ]
+    """
+    path = write(tmp_path, SOURCE + textwrap.dedent(robot))
+    (lifter,) = load_cell(path, env={}, cache_dir=tmp_path / "cache").robots
+    assert lifter.joints[0].limits == (0.0, 0.25)
+    broken = (tmp_path / "arm.urdf.xacro").read_text().replace("</joint>", "</jiont>")
+    (tmp_path / "arm.urdf.xacro").write_text(broken)
+    (message,) = problems(path)
+    assert message.startswith(
+        f'robot[0] "lifter".kinematics.file: {tmp_path / "arm.urdf.xacro"}: malformed XML: '
+        "mismatched tag: line 5"
+    ), message
 
 
 def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
@@ -292,3 +330,27 @@ def test_an_empty_ca_file_is_named(tmp_path: Path) -> None:
         f'source[0] "line1".ca: CA file {tmp_path / "line1.pem"} is empty: '
         "it holds no PEM certificate"
     ]
+
+
+def test_setpoint_nodes_are_mapped_as_their_joints_and_given_for_all_or_none(
+    tmp_path: Path,
+) -> None:
+    robot = TYPE12.replace(
+        '{ node = "a" }', '{ node = "a", scale = 0.5, setpoint = "/a/ipo/" }'
+    ).replace('{ node = "b" }', '{ node = "b", setpoint = "b/ipo" }')
+    (kin,) = load_cell(write(tmp_path, SOURCE + robot), env={}, cache_dir=tmp_path).robots
+    assert kin.setpoint_nodes == ("a/ipo", "b/ipo")
+    assert kin.followed == ("a", "b", "a/ipo", "b/ipo")
+    info = kin.info().joints[0]
+    assert (info.node, info.setpoint, info.scale, info.source_unit) == ("a", "a/ipo", 0.5, "deg")
+    (plain,) = load_cell(
+        write(tmp_path, SOURCE + TYPE12, "plain.toml"), env={}, cache_dir=tmp_path
+    ).robots
+    assert plain.setpoint_nodes == () and plain.followed == ("a", "b")
+    half = TYPE12.replace('{ node = "b" }', '{ node = "b", setpoint = "b/ipo" }')
+    assert problems(write(tmp_path, SOURCE + half, "half.toml")) == [
+        'robot[0] "kin".joints[0].setpoint: give every joint a setpoint node, or none'
+    ]
+    empty = TYPE12.replace('{ node = "b" }', '{ node = "b", setpoint = "" }')
+    (message,) = problems(write(tmp_path, SOURCE + empty, "empty.toml"))
+    assert message.startswith('robot[0] "kin".joints[1].setpoint:')
