@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 import uvicorn
 from aiohttp import web
+from hypothesis import settings as hypothesis_settings
 
 from server.cell import Cell, Robot, load_cell
 from server.config import Settings
@@ -20,6 +21,11 @@ from server.mock_ctrlx import build_app, serve
 from server.paths import DEMO_CELL
 from server.web import create_app
 from server.web.serve import server_config
+
+# Hypothesis' 200 ms per example is a timing floor: on a loaded 2-core machine it fails
+# properties that hold. Examples are bounded by count (max_examples), not by time.
+hypothesis_settings.register_profile("linkview", deadline=None)
+hypothesis_settings.load_profile("linkview")
 
 
 @pytest.fixture(scope="session", autouse=True)
