@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
+import contextlib
+import functools
 import ipaddress
 import logging
+import os
 import sys
 from pathlib import Path
 
@@ -12,23 +16,34 @@ import uvicorn
 from pydantic import ValidationError
 
 from .cell import CellError, load_cell
+from .cluster import broker_settings, run_worker
 from .config import Settings
 from .logs import setup_logging
-from .runtime.startup import configured_cell
+from .runtime.startup import configured_cell, source_defaults
 from .web import create_app
 from .web.serve import server_config
 
 log = logging.getLogger("server")
 
 
-def parse_settings(argv: list[str] | None = None) -> Settings:
-    """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags."""
+def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Settings:
+    """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags.
+
+    ``worker``: the flags of ``python -m server acquire`` (no web server's).
+    """
     parser = argparse.ArgumentParser(
-        prog="python -m server",
-        description="Serve the live 3D view. `python -m server check FILE` checks a cell file.",
+        prog="python -m server acquire" if worker else "python -m server",
+        description=ACQUIRE_HELP
+        if worker
+        else "Serve the live 3D view. `python -m server check FILE` checks a cell file; "
+        "`python -m server acquire` runs an acquisition worker of a cluster.",
     )
-    parser.add_argument("--host", help="address to bind (default 127.0.0.1)")
-    parser.add_argument("--port", type=int, help="port to bind (default 8000)")
+    parser.set_defaults(host=None, port=None, viewer_token=None, allow_origin=None)
+    parser.set_defaults(max_viewers=None)
+    web = parser.add_argument_group("web server") if not worker else None
+    if web is not None:
+        web.add_argument("--host", help="address to bind (default 127.0.0.1)")
+        web.add_argument("--port", type=int, help="port to bind (default 8000)")
     parser.add_argument(
         "--cell", metavar="FILE", help="the cell file (TOML, docs/cell.md; default: the demo cell)"
     )
@@ -38,18 +53,19 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="let the page move robots of real controllers (embedded mocks always may)",
     )
-    parser.add_argument(
-        "--viewer-token",
-        metavar="SECRET",
-        help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
-    )
-    parser.add_argument(
-        "--allow-origin",
-        metavar="URL",
-        action="append",
-        help="also let pages from this origin open the stream (repeatable)",
-    )
-    parser.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
+    if web is not None:
+        web.add_argument(
+            "--viewer-token",
+            metavar="SECRET",
+            help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
+        )
+        web.add_argument(
+            "--allow-origin",
+            metavar="URL",
+            action="append",
+            help="also let pages from this origin open the stream (repeatable)",
+        )
+        web.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
     parser.add_argument(
         "--ctrlx", metavar="URL", help="controller URL for a one-source cell (default: its own)"
     )
@@ -71,6 +87,13 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="do not verify the controller's HTTPS certificate (not recommended)",
     )
+    parser.add_argument(
+        "--broker",
+        metavar="URL",
+        required=worker and "LINKVIEW_BROKER" not in os.environ,
+        help="redis://HOST:PORT/DB: share the work with other processes through this Redis "
+        "server (docs/cluster.md)",
+    )
     args = parser.parse_args(argv)
     overrides = {
         "host": args.host,
@@ -85,6 +108,7 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "ctrlx_api": args.api,
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
+        "broker": args.broker,
     }
     try:
         return Settings(**{k: v for k, v in overrides.items() if v is not None})
@@ -119,6 +143,8 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["check"]:
         sys.exit(check(argv[1:]))
+    if argv[:1] == ["acquire"]:
+        sys.exit(acquire(argv[1:]))
     settings = parse_settings(argv)
     setup_logging()
     try:
@@ -130,7 +156,7 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )
-    if settings.viewer_token is None and not is_loopback(settings.host):
+    if not settings.viewer_token and not is_loopback(settings.host):
         log.warning(
             "listening on %s without a viewer token: anyone who can reach port %d can watch "
             "this cell (and move its simulated robots); set --viewer-token or "
@@ -141,6 +167,31 @@ def main(argv: list[str] | None = None) -> None:
     app = create_app(settings, cell)
     config = server_config(app, settings.host, settings.port, settings.client_timeout_s)
     uvicorn.Server(config).run()
+
+
+ACQUIRE_HELP = (
+    "Run an acquisition worker of a cluster: follow the sources of the cell this worker holds "
+    "leases for in the broker, and publish their frames there for the web replicas "
+    "(python -m server --broker URL)."
+)
+
+
+def acquire(argv: list[str]) -> int:
+    """Run an acquisition worker until interrupted; the exit status."""
+    settings = parse_settings(argv, worker=True)
+    broker = broker_settings(settings)
+    if broker is None:  # parse_settings requires one; this tells mypy
+        return 2
+    setup_logging()
+    try:
+        cell = configured_cell(settings)
+    except CellError as exc:
+        print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
+        return 2
+    load = functools.partial(configured_cell, settings, cell.path)
+    with contextlib.suppress(KeyboardInterrupt):
+        asyncio.run(run_worker(cell, source_defaults(settings), broker, load))
+    return 0
 
 
 def is_loopback(host: str) -> bool:

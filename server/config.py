@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Literal
+from urllib.parse import urlsplit
 
 from pydantic import Field, SecretStr, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -49,6 +50,11 @@ class Settings(BaseSettings):
     request_timeout_s: float = Field(5.0, gt=0.0)
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
+    broker: str | None = None
+    """``redis://HOST:PORT/DB``: run as one role of a cluster sharing this Redis server."""
+    broker_password: SecretStr | None = None
+    broker_lease_s: float = Field(1.2, ge=0.2, le=60.0)
+    """A worker that stops renewing its lease loses its sources to another after this long."""
 
     @field_validator("ctrlx_url")
     @classmethod
@@ -57,6 +63,25 @@ class Settings(BaseSettings):
         if url is not None:
             check_base_url(url)
         return url
+
+    @field_validator("broker")
+    @classmethod
+    def _broker_url(cls, url: str | None) -> str | None:
+        # The password has its own variable: the URL is shown in logs and health.
+        if url is None:
+            return None
+        parts = urlsplit(url.strip())
+        if parts.username or parts.password:
+            raise ValueError("put the broker's password in LINKVIEW_BROKER_PASSWORD, not the URL")
+        if parts.scheme not in ("redis", "rediss") or not parts.hostname:
+            raise ValueError(f"broker URL {url!r}: use redis://HOST:PORT/DB")
+        try:
+            parts.port  # noqa: B018 (only parsing it validates it)
+        except ValueError:
+            raise ValueError(f"broker URL {url!r} has an invalid port") from None
+        if parts.path.strip("/") and not parts.path.strip("/").isdigit():
+            raise ValueError(f"broker URL {url!r}: the path is the database number, e.g. /0")
+        return url.strip()
 
     @field_validator("ctrlx_ca")
     @classmethod

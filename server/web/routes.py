@@ -60,7 +60,8 @@ async def health(request: Request) -> JSONResponse:
     runtime = runtime_of(request)
     sources: list[dict[str, Any]] = []
     robots: list[dict[str, Any]] = []
-    for source in runtime.healths():
+    by_name = {source.name: source for source in runtime.healths()}
+    for source in by_name.values():
         sources.append(
             {
                 **source.status().model_dump(),
@@ -71,7 +72,7 @@ async def health(request: Request) -> JSONResponse:
             }
         )
     for robot in runtime.robots:
-        source_health = runtime.sources[robot.source].health
+        source_health = by_name[robot.source]
         state = source_health.robots.get(robot.name)
         robots.append(
             {
@@ -96,5 +97,6 @@ async def health(request: Request) -> JSONResponse:
         "robots": robots,
         "viewers": runtime.hub.viewer_count,
         "dropped_frames": runtime.hub.dropped,
+        **runtime.report(),
     }
     return JSONResponse(body, status_code=200 if any(live) else 503)
