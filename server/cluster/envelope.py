@@ -8,7 +8,7 @@ whatever the number of sources (see docs/benchmarks.md, bench/cluster.py).
 Each item: a 16-byte header (little-endian: payload kind u8, protocol u8
 (0: every protocol), key length u16, payload length u32, t_source f64 (NaN:
 none)), the key (UTF-8), then the payload: bytes as they are, a text as
-UTF-8, several texts joined by newlines (JSON texts never contain one).
+UTF-8, several texts each ended by a newline (JSON texts never contain one).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def pack(items: Iterable[Item]) -> bytes:
         elif isinstance(payload, str):
             kind, data = _TEXT, payload.encode()
         else:
-            kind, data = _TEXTS, "\n".join(payload).encode()
+            kind, data = _TEXTS, "".join(f"{text}\n" for text in payload).encode()
         name = key.encode()
         t = math.nan if message.t_source is None else message.t_source
         parts += (ITEM.pack(kind, protocol or 0, len(name), len(data), t), name, data)
@@ -64,7 +64,7 @@ def unpack(batch: bytes) -> Iterator[Item]:
         elif kind == _TEXT:
             payload = data.decode()
         elif kind == _TEXTS:
-            payload = tuple(data.decode().split("\n")) if data else ()
+            payload = tuple(data.decode().split("\n")[:-1])
         else:
             raise ValueError(f"unknown payload kind {kind}")
         yield key, Message(payload, None if math.isnan(t) else t), protocol or None

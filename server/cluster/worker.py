@@ -84,6 +84,9 @@ class Worker(Runtime):
                 log.info("%s: following %s", self.id, shown)
             self.held = [s.name for s in wanted]
 
+    def _publish_cell(self) -> None:
+        """Nothing to publish: replicas greet their viewers from their own cell file."""
+
     def _describe(self, source: str) -> dict[str, object] | None:
         running = self.sources.get(source)
         if running is None:

@@ -68,6 +68,11 @@ async def test_every_viewer_on_either_replica_gets_the_same_frames(
     held = await balanced(redis_server, 2)
     assert sorted(len(worker_of(w, held)) for w in workers) == [2, 2]
 
+    async with aiohttp.ClientSession() as http, http.get(r2.base + "/metrics") as resp:
+        metrics = await resp.text()
+    for source in SOURCES:  # a replica's metrics come from what the workers publish
+        assert f'linkview_source_live{{source="{source}"}} 1.0' in metrics
+
     a, b = await asyncio.gather(watch(r1.base, 3.0), watch(r2.base, 3.0))
     assert a.hello == b.hello, "replicas must greet alike (same session, same robots)"
     on_a = {(i, seq): data for _, i, seq, data in a.frames}
