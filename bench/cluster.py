@@ -370,18 +370,28 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--robots", type=int, default=20, help="robots, one controller each")
     parser.add_argument("--viewers", type=int, default=20, help="protocol-2 viewers, all told")
+    parser.add_argument(
+        "--transport-sources", type=int, default=100, help="sources of the transport part"
+    )
     parser.add_argument("--seconds", type=float, default=6.0, help="measuring window")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--full", action="store_true", help="the issue's 400 robots, 2 000 viewers")
     parser.add_argument("--quick", action="store_true", help="10 robots, 10 viewers, 3 s; no docs")
+    parser.add_argument("--transport-only", action="store_true", help="the first part; no docs")
     args = parser.parse_args()
     if args.full:
-        args.robots, args.viewers = 400, 2000
+        args.robots, args.viewers, args.transport_sources = 400, 2000, 400
     if args.quick:
         args.robots, args.viewers, args.seconds, args.warmup = 10, 10, 3.0, 2.0
+        args.transport_sources = 20
     load0 = os.getloadavg()[0]
 
-    transports = [transport_case(t, args.robots, args.seconds) for t in TRANSPORTS]
+    transports = []
+    for transport in TRANSPORTS:
+        transports.append(transport_case(transport, args.transport_sources, args.seconds))
+        print(transports[-1], flush=True)
+    if args.transport_only:
+        return
     with ExitStack() as stack, tempfile.TemporaryDirectory() as tmp:
         cluster = Cluster(stack, Path(tmp), args.robots)
         cluster.wait_live()
@@ -452,7 +462,7 @@ def report(
         f"{args.viewers} protocol-2 viewers: {scaled}. Every role, the mocks and the viewers "
         f"share the machine; CPU is utime + stime over the window, 100 % = one core. Load "
         f"average (1 min) {load0:.2f} before, {os.getloadavg()[0]:.2f} after.\n\n"
-        f"**Transport** for the frames ({args.robots} sources at 50 Hz, 2 subscribers, "
+        f"**Transport** for the frames ({args.transport_sources} sources at 50 Hz, 2 subscribers, "
         f"{args.seconds:g} s): linkview publishes one batch per 2 ms tick on pub/sub.\n\n"
         f"{markdown_table(t_head, t_rows)}\n\n"
         f"**Cluster**: 2 workers, 2 replicas (viewers split evenly), {args.seconds:g} s after "

@@ -4,7 +4,7 @@ A replica follows no controller. It feeds the frames and status the workers
 publish into its own hub, which fans them out to its viewers as one process
 does. Everything a viewer gets is either from the broker (frames, status,
 robot health) or from the cell file every role reads (hello, cell notice),
-and the session id is derived from both: replicas are interchangeable, and
+and the session id is derived from the cell: replicas are interchangeable, and
 a viewer may reconnect to any of them and carry on.
 
 Each source's state is judged on the replica's own clock from the frames
@@ -57,11 +57,10 @@ NO_WORKER = "no acquisition worker follows this source (start one: python -m ser
 WAITING = "waiting for the acquisition worker"
 
 
-def session_of(cell: Cell, broker_url: str) -> str:
-    """The same on every replica of a cluster serving the same cell."""
+def session_of(cell: Cell) -> str:
+    """The same on every replica serving the same cell (however each names the broker)."""
     infos = [r.info(False).model_dump() for r in cell.robots]
-    digest = hashlib.sha256(orjson.dumps([broker_url, infos]))
-    return digest.hexdigest()[:16]
+    return hashlib.sha256(orjson.dumps(infos)).hexdigest()[:16]
 
 
 class Replica(Runtime):
@@ -106,7 +105,7 @@ class Replica(Runtime):
             health[source.name] = kept
         self._health = health
         self.cell, self.cell_error = cell, None
-        self.session = session_of(cell, self.broker.url)
+        self.session = session_of(cell)
         self.hub.restart()
         self._publish_cell()
         for name in health:
@@ -183,10 +182,7 @@ class Replica(Runtime):
                     else:
                         self._on_answer(message["data"])
             except (RedisError, OSError) as exc:
-                if self.broker.failed(exc, retry):
-                    for name, health in self._health.items():
-                        health.mark_error(self.broker.error or "message broker unreachable")
-                        self._send_status(name)
+                self._lost_broker(exc, retry)
             finally:
                 with contextlib.suppress(RedisError, OSError):
                     await pubsub.aclose()  # type: ignore[no-untyped-call]
@@ -197,14 +193,23 @@ class Replica(Runtime):
         """The broker answers: start from the status records it keeps."""
         names = list(self._health)
         records = await self.redis.mget([health_key(n) for n in names]) if names else []
-        if self.broker.reached():
-            for health in self._health.values():
-                health.state, health.error = "connecting", WAITING
+        self._found_broker()
         for name, record in zip(names, records, strict=True):
             if record is not None:
                 self._on_record(name, record)
         for name in names:
             self._send_status(name)
+
+    def _lost_broker(self, exc: BaseException, retry_s: float) -> None:
+        if self.broker.failed(exc, retry_s):
+            for name, health in self._health.items():
+                health.mark_error(self.broker.error or "message broker unreachable")
+                self._send_status(name)
+
+    def _found_broker(self) -> None:
+        if self.broker.reached():
+            for health in self._health.values():
+                health.state, health.error = "connecting", WAITING
 
     def _on_batch(self, data: bytes) -> None:
         try:
@@ -274,8 +279,10 @@ class Replica(Runtime):
                 if self.hub.viewers_of(1):
                     await self.redis.set(WANTS_JSON, b"1", px=round(6 * POLL_S * 1000))
                 holders = await self.redis.mget([lease_key(n) for n in names]) if names else []
-            except (RedisError, OSError):
-                continue  # the listener reports the broker's state
+            except (RedisError, OSError) as exc:  # also when Redis hangs: no error on the listener
+                self._lost_broker(exc, POLL_S)
+                continue
+            self._found_broker()
             for name, holder in zip(names, holders, strict=True):
                 self.holders[name] = None if holder is None else text(holder)
                 health = self._health[name]

@@ -36,7 +36,7 @@ from .broker import (
     connect,
     member_id,
 )
-from .lease import Leases
+from .lease import Leases, Tick
 from .publisher import BrokerHub
 
 log = logging.getLogger(__name__)
@@ -99,9 +99,14 @@ class Worker(Runtime):
         }
 
     async def follow_leases(self) -> None:
-        """Hold a fair share of the cell's sources for as long as the broker lets us."""
+        """Hold a fair share of the cell's sources for as long as the broker lets us.
+
+        Sources start and stop in a task of their own (``_rearrange``): many
+        of them take a while to start, and leases must be renewed meanwhile.
+        """
         retry = tick_s = self.lease_s / 4
         valid_until = 0.0
+        rearranging: asyncio.Task[None] | None = None
         while True:
             sent = time.monotonic()
             try:
@@ -121,14 +126,23 @@ class Worker(Runtime):
             lost = set(self.held) - set(tick.held)
             if lost:
                 log.warning("%s: lease of %s lost", self.id, ", ".join(sorted(lost)))
-            handed = tick.excess
+            if rearranging is None or rearranging.done():
+                rearranging = asyncio.create_task(self._rearrange(tick))
+            await asyncio.sleep(max(0.0, sent + tick_s - time.monotonic()))
+
+    async def _rearrange(self, tick: Tick) -> None:
+        """Follow what ``tick`` gave us; hand the excess over once it is stopped."""
+        handed = tick.excess
+        try:
             await self.hold([s for s in tick.held + tick.taken if s not in handed])
             if handed:
-                with contextlib.suppress(RedisError, OSError):
-                    await self.leases.release(handed)
+                await self.leases.release(handed)
                 shown = ", ".join(handed)
                 log.info("%s: handed %s over (fair share %d)", self.id, shown, tick.fair)
-            await asyncio.sleep(max(0.0, sent + tick_s - time.monotonic()))
+        except (RedisError, OSError):
+            pass  # the next tick reports the broker's state, and hands over again
+        except Exception:  # the lease loop must outlive any one source that fails to start
+            log.exception("%s: following %s failed", self.id, ", ".join(tick.held + tick.taken))
 
     async def follow_commands(self) -> None:
         """Execute the moves replicas send for sources held; reconnects after the broker."""
