@@ -2,6 +2,12 @@
 
 Every ``forward``, ``link_poses`` and ``inverse`` takes inputs batched over
 leading axes and returns ``(values, ok)`` with ``ok`` a boolean array over them.
+
+One family per module or package: ``dh/`` (Denavit-Hartenberg chains, the
+KUKA LBR iiwa), ``urdf/`` (URDF joint trees), ``type12``, ``axis_group``;
+shared helpers are the ``_``-prefixed modules here (``_numeric_ik`` is the
+damped-least-squares inverse that every serial family falls back on).
+Reading URDF files and meshes is ``server.urdf``'s job, not this package's.
 """
 
 from ._pose_vector import matrix_from_pose_vector, pose_vector_from_matrix
@@ -19,8 +25,7 @@ from .calibration import (
     calibrate_linear_axis,
     calibrate_rotary_axis,
 )
-from .dh import DHChain
-from .iiwa import IiwaSolutions, LBRiiwa, iiwa7
+from .dh import DHChain, IiwaSolutions, LBRiiwa, iiwa7
 from .motion import SpeedMove, TrapezoidMove, plan_movej, plan_speedj
 from .rpy import matrix_from_rpy, rpy_from_matrix
 from .type12 import Type12, circle_circle_intersection

@@ -13,6 +13,14 @@ def wrap_angle(angle: Array) -> Array:
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
+def snap_unit(value: float) -> float:
+    """``value`` with rounding noise removed around 0 and +-1 (cos(pi/2) is 6e-17, not 0)."""
+    for exact in (0.0, 1.0, -1.0):
+        if abs(value - exact) < 1e-15:
+            return exact
+    return value
+
+
 def rot_z(angle: Array) -> Array:
     """3x3 rotations about +Z by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
     c, s = np.cos(angle), np.sin(angle)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from . import _dh_numeric_ik
+from . import _numeric_ik
 from .axis_group import WorldModel
 
 Array = npt.NDArray[np.float64]
@@ -48,5 +48,5 @@ def serial_rotary_inverse(
         frames, _ = world.link_poses(group, q)
         return frames
 
-    q, ok = _dh_numeric_ik.solve(frames_of, True, limits, target.reshape(-1, 4, 4), ref)
+    q, ok = _numeric_ik.solve(frames_of, True, limits, target.reshape(-1, 4, 4), ref)
     return q.reshape(lead + (len(axes),)), ok.reshape(lead)

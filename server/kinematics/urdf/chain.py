@@ -14,65 +14,28 @@ This module is pure numpy; ``server.urdf`` reads files into a ``UrdfTree``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from . import _dh_numeric_ik, _urdf_tree
-from ._batch import all_along_last
-from ._urdf_fk import BatchKernel, ScalarKernel, SmallBatchKernel
-from ._urdf_program import compile_frames
+from .. import _numeric_ik
+from .._batch import all_along_last
+from . import _tree
+from ._kernels import BatchKernel, ScalarKernel, SmallBatchKernel
+from ._program import compile_frames
+from .description import UrdfTree
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
 # Below this many configurations, stacked 4x4 products beat the column kernel.
 _LARGE_BATCH = 256
-JointType = Literal["revolute", "continuous", "prismatic", "fixed"]
-
-
-@dataclass(frozen=True)
-class UrdfMimic:
-    """URDF ``<mimic>``: this joint's value is ``multiplier * q[joint] + offset`` (rad or m)."""
-
-    joint: str
-    multiplier: float = 1.0
-    offset: float = 0.0
-
-
-@dataclass(frozen=True, eq=False)
-class UrdfJoint:
-    """One joint: ``origin`` (4x4, m) places the joint frame in the parent link frame at q = 0.
-
-    ``axis`` is in the joint frame (need not be unit length). ``limits`` is
-    (lower, upper) in rad or m; required for revolute and prismatic joints that
-    do not mimic another, ignored for continuous ones.
-    """
-
-    name: str
-    type: JointType
-    parent: str
-    child: str
-    origin: Array = field(default_factory=lambda: np.eye(4))
-    axis: tuple[float, float, float] = (1.0, 0.0, 0.0)
-    limits: tuple[float, float] | None = None
-    mimic: UrdfMimic | None = None
-
-
-@dataclass(frozen=True)
-class UrdfTree:
-    """A robot's joint tree as URDF describes it: link names, and joints in document order."""
-
-    links: tuple[str, ...]
-    joints: tuple[UrdfJoint, ...]
-
 
 
 class _Kernels:
     """The frames of some links by the kernel that suits the batch size."""
 
-    def __init__(self, tree: _urdf_tree.Tree, outputs: list[int]) -> None:
+    def __init__(self, tree: _tree.Tree, outputs: list[int]) -> None:
         program = compile_frames(tree, outputs)
         self.one = ScalarKernel(program)
         self._small = SmallBatchKernel(tree, outputs)
@@ -91,7 +54,7 @@ class UrdfChain:
     """
 
     def __init__(self, tree: UrdfTree, tip: str | None = None) -> None:
-        self._tree = _urdf_tree.build(tree)
+        self._tree = _tree.build(tree)
         links = self._tree.links
         self.n_joints: int = len(self._tree.joint_names)
         self.joint_names: tuple[str, ...] = self._tree.joint_names
@@ -203,7 +166,7 @@ class UrdfChain:
         ``pose`` is ``(..., 4, 4)`` in the root-link frame.
 
         Numerical: damped least squares from ``q_ref`` and seeded random starts
-        over the joints that move the tip (see ``_dh_numeric_ik``); among the
+        over the joints that move the tip (see ``_numeric_ik``); among the
         solutions found, the one nearest ``q_ref`` ``(..., n)`` is returned.
         Joints that do not move the tip keep ``q_ref``. ``ok`` is False where no
         start converged (pose error below 1e-10, m and rad) or the input is not
@@ -211,14 +174,14 @@ class UrdfChain:
         0 for continuous joints).
         """
         lim = self.limits
-        todo = _dh_numeric_ik.batch(pose, q_ref, lim, self._joints)
+        todo = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         lead, flat_target, ref, finite = todo.lead, todo.targets, todo.ref, todo.finite
         q = todo.start
         ok = np.zeros(len(q), dtype=bool)
         act = self._active
         if finite.any() and act.size:
             types = np.array(self.joint_types)[act]
-            solved, ok[finite] = _dh_numeric_ik.solve_model(
+            solved, ok[finite] = _numeric_ik.solve_model(
                 self._model,
                 lim[act],
                 flat_target[finite],
@@ -230,8 +193,8 @@ class UrdfChain:
             q[finite] = rows
         elif finite.any():  # nothing moves the tip: solved only where it already is
             tip, _ = self.forward(q[finite])
-            err, rot = _dh_numeric_ik.pose_error(flat_target[finite], tip)
-            ok[finite] = (np.linalg.norm(err, axis=-1) < _dh_numeric_ik.TOLERANCE) & (
+            err, rot = _numeric_ik.pose_error(flat_target[finite], tip)
+            ok[finite] = (np.linalg.norm(err, axis=-1) < _numeric_ik.TOLERANCE) & (
                 rot[:, 0] + rot[:, 4] + rot[:, 8] > 1.0
             )
         return q.reshape(lead + (self.n_joints,)), ok.reshape(lead)

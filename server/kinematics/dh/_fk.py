@@ -23,18 +23,12 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from .._rotations import snap_unit
+
 Array = npt.NDArray[np.float64]
 
 _IDENTITY = np.eye(4)
 BLOCK = 4096  # samples per pass of ``large_batch``; its buffers then fit in L2/L3
-
-
-def snap_unit(value: float) -> float:
-    """``value`` with rounding noise removed around 0 and +-1 (cos(pi/2) is 6e-17, not 0)."""
-    for exact in (0.0, 1.0, -1.0):
-        if abs(value - exact) < 1e-15:
-            return exact
-    return value
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ Compiling does all the work that does not depend on the joint values once:
   any other axis is brought onto z by a constant rotation before and after;
 * sums of columns with constant weights (``Lin``) fold constants together.
 
-The batch and single-configuration kernels in ``_urdf_fk`` run the same list,
+The batch and single-configuration kernels in ``_kernels`` run the same list,
 so they cannot disagree about the kinematics. Buffers are numbered as they are
 created; ``Program.slots`` maps them onto as few reusable slots as the
 operations' lifetimes allow, so the batch kernel's work set stays in cache.
@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from ._dh_fk import snap_unit
-from ._urdf_tree import Tree
+from .._rotations import snap_unit
+from ._tree import Tree
 
 Array = npt.NDArray[np.float64]
 Vec = tuple[float, float, float]

@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ._rotations import wrap_angle
-from .dh import DHChain
+from .._rotations import wrap_angle
+from .chain import DHChain
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]

@@ -1,7 +1,7 @@
 """The forward-kinematics kernels behind ``UrdfChain``: one per batch regime, same results.
 
 * ``BatchKernel`` (large batches) and ``ScalarKernel`` (one configuration) run
-  the same ``_urdf_program``; ``SmallBatchKernel`` multiplies stacked 4x4
+  the same ``_program``; ``SmallBatchKernel`` multiplies stacked 4x4
   joint transforms, which has the least overhead for a few hundred samples.
 * ``BatchKernel``: the columns of every buffer are ``(3, samples)`` arrays, so
   each operation is a few long contiguous NumPy passes; samples go through in
@@ -24,8 +24,8 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from ._urdf_program import Buf, Lin, Out, Program, Slide, Turn, Vec
-from ._urdf_tree import Tree
+from ._program import Buf, Lin, Out, Program, Slide, Turn, Vec
+from ._tree import Tree
 
 Array = npt.NDArray[np.float64]
 BLOCK = 4096  # samples per pass: the buffers and the frames being built stay in cache

@@ -17,8 +17,9 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 
-from . import _dh_fk, _dh_numeric_ik
-from ._batch import all_along_last
+from .. import _numeric_ik
+from .._batch import all_along_last
+from . import _fk
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -71,7 +72,7 @@ class DHChain:
                 raise ValueError(f"limits must be (n, 2) = ({n}, 2) with lower <= upper")
             lim.flags.writeable = False
             self.limits = lim
-        self._k = _dh_fk.chain_constants(
+        self._k = _fk.chain_constants(
             self.d, self.a, self.alpha, self.theta_offset, convention == "modified"
         )
 
@@ -89,8 +90,8 @@ class DHChain:
     def _frames(self, q: Array) -> Array:
         """Frames ``(m, n + 1, 4, 4)`` of configurations ``(m, n)``, by the faster kernel."""
         if q.shape[0] < _LARGE_BATCH:
-            return _dh_fk.small_batch(self._k, q)
-        return _dh_fk.large_batch(self._k, q)
+            return _fk.small_batch(self._k, q)
+        return _fk.large_batch(self._k, q)
 
     def _joints(self, q: npt.ArrayLike) -> Array:
         arr = np.asarray(q, dtype=np.float64)
@@ -110,7 +111,7 @@ class DHChain:
             ok = all(map(math.isfinite, joints))
             if not ok:
                 joints = [x if math.isfinite(x) else 0.0 for x in joints]
-            return _dh_fk.one_config(self._k, joints), np.array(ok)
+            return _fk.one_config(self._k, joints), np.array(ok)
         ok_rows = all_along_last(np.isfinite(arr))
         if not ok_rows.all():
             arr = np.where(np.isfinite(arr), arr, 0.0)
@@ -129,7 +130,7 @@ class DHChain:
             ok_rows = all_along_last(np.isfinite(arr))
             if not ok_rows.all():
                 arr = np.where(np.isfinite(arr), arr, 0.0)
-            flange = _dh_fk.large_batch(self._k, arr.reshape(-1, self.n_joints), flange_only=True)
+            flange = _fk.large_batch(self._k, arr.reshape(-1, self.n_joints), flange_only=True)
             return flange.reshape(arr.shape[:-1] + (4, 4)), ok_rows
         poses, ok = self.link_poses(arr)
         return np.ascontiguousarray(poses[..., -1, :, :]), ok
@@ -152,17 +153,17 @@ class DHChain:
         """Joints ``(..., n)`` rad within the limits putting the flange on ``pose`` ``(..., 4, 4)``.
 
         Numerical (damped least squares from ``q_ref`` and seeded random starts,
-        see ``_dh_numeric_ik``); among the solutions found, the one nearest
+        see ``_numeric_ik``); among the solutions found, the one nearest
         ``q_ref`` ``(..., n)`` is returned. ``ok`` is False where no start
         converged (pose error below 1e-10, m and rad) or the input is not
         finite; there ``q`` is ``q_ref`` clipped to the limits (or mid-range).
         """
         lim = self.joint_limits()
-        rows = _dh_numeric_ik.batch(pose, q_ref, lim, self._joints)
+        rows = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         q, finite = rows.start, rows.finite
         ok = np.zeros(len(q), dtype=bool)
         if finite.any():
-            q[finite], ok[finite] = _dh_numeric_ik.solve(
+            q[finite], ok[finite] = _numeric_ik.solve(
                 self._frames,
                 self._k.modified,
                 lim,

@@ -13,13 +13,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-if TYPE_CHECKING:
-    from .urdf import UrdfJoint, UrdfTree
+from .description import UrdfJoint, UrdfTree
 
 Array = npt.NDArray[np.float64]
 
