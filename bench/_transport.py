@@ -50,23 +50,28 @@ async def read_window() -> None:
 async def publish(
     redis: Redis, transport: str, sources: int, rate: float, size: int
 ) -> dict[str, Any]:
-    """Send frames until the window has passed; counts of what was sent in it."""
+    """Send frames until the window has passed; counts of what was sent in it.
+
+    Every tick sends the frames of its share of the sources (source i in tick
+    i mod ticks-per-period), also when the loop runs late: a late tick is sent
+    as it would have been, not merged with the next, so every transport gets
+    the same batches whatever the machine's load.
+    """
     names = [f"s{i}" for i in range(sources)]
     filler = os.urandom(size - STAMP.size)
-    phase = np.arange(sources) / sources / rate  # sources spread evenly over a period
-    due = time.time() + 0.5 + phase
-    sent = commands = 0
+    per_period = max(1, round(1.0 / rate / TICK_S))
+    slots = [names[k::per_period] for k in range(per_period)]
+    sent = commands = tick = 0
+    start = time.time() + 0.5
     waiting = asyncio.create_task(read_window())
     while time.time() < WINDOW[1] or not waiting.done():
-        now = time.time()
-        ready = np.flatnonzero(due <= now)
-        if len(ready):
-            due[ready] += 1.0 / rate
-            frames = [(names[i], STAMP.pack(now) + filler) for i in ready]
+        while (now := time.time()) >= start + tick * TICK_S and now < WINDOW[1]:
+            frames = [(name, STAMP.pack(now) + filler) for name in slots[tick % per_period]]
             commands += await send(redis, transport, frames)
             if WINDOW[0] <= now < WINDOW[1]:
                 sent += len(frames)
-        await asyncio.sleep(max(0.0, TICK_S - (time.time() - now)))
+            tick += 1
+        await asyncio.sleep(max(0.0, start + tick * TICK_S - time.time()))
     return {"sent": sent, "commands": commands}
 
 

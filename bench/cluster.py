@@ -296,10 +296,16 @@ def cluster_case(cluster: Cluster, viewers: int, warmup: float, seconds: float) 
     robots = len(cluster.sources)
     fps = [n / seconds for s in summaries for v in s["viewers"] for n in v["frames"].values()]
     fps += [0.0] * (robots * viewers - len(fps))
+    delivered = sum(fps) * seconds
     return {
         "robots": robots,
         "viewers": viewers,
         "cpu": cpu,
+        "worker_ms_per_sample": 1e3 * (cpu["worker 1"] + cpu["worker 2"]) * seconds / max(made, 1),
+        "replica_us_per_frame": 1e6
+        * (cpu["replica 1"] + cpu["replica 2"])
+        * seconds
+        / max(delivered, 1),
         "processed": made / (robots * RATE_HZ * seconds),
         "fps_min": min(fps),
         "fps_median": float(np.median(fps)),
@@ -440,11 +446,14 @@ def report(
         "p99 ms",
     ]
     cpu = case["cpu"]
-    c_head = [*(f"{k} CPU" for k in cpu), "samples made", "frames/s per robot per viewer (min)"]
+    c_head = [*(f"{k} CPU" for k in cpu), "worker CPU ms/sample", "replica CPU µs/frame sent"]
+    c_head += ["samples made", "frames/s per robot per viewer (min)"]
     c_head += ["(median)", "sample→receipt p50 ms", "p99 ms"]
     c_rows = [
         [
             *(f"{v:.0%}" for v in cpu.values()),
+            f"{case['worker_ms_per_sample']:.3f}",
+            f"{case['replica_us_per_frame']:.1f}",
             f"{case['processed']:.0%}",
             f"{case['fps_min']:.1f}",
             f"{case['fps_median']:.1f}",

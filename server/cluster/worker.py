@@ -42,6 +42,14 @@ from .publisher import BrokerHub
 log = logging.getLogger(__name__)
 
 
+def listed(names: list[str], most: int = 8) -> str:
+    """Source names for a log line: the first few and how many in all."""
+    if not names:
+        return "no source"
+    shown = ", ".join(names[:most])
+    return shown if len(names) <= most else f"{len(names)} sources ({shown}, ...)"
+
+
 class Worker(Runtime):
     """The sources this worker holds leases for, publishing to the broker."""
 
@@ -80,8 +88,7 @@ class Worker(Runtime):
             await Runtime.apply(self, dataclasses.replace(self.whole, sources=tuple(wanted)))
             self._applied = self.whole
             if set(self.held) != {s.name for s in wanted}:
-                shown = ", ".join(s.name for s in wanted) or "no source"
-                log.info("%s: following %s", self.id, shown)
+                log.info("%s: following %s", self.id, listed([s.name for s in wanted]))
             self.held = [s.name for s in wanted]
 
     def _publish_cell(self) -> None:
@@ -125,7 +132,7 @@ class Worker(Runtime):
             self.publisher.json_wanted = tick.json_wanted
             lost = set(self.held) - set(tick.held)
             if lost:
-                log.warning("%s: lease of %s lost", self.id, ", ".join(sorted(lost)))
+                log.warning("%s: lease of %s lost", self.id, listed(sorted(lost)))
             if rearranging is None or rearranging.done():
                 rearranging = asyncio.create_task(self._rearrange(tick))
             await asyncio.sleep(max(0.0, sent + tick_s - time.monotonic()))
@@ -137,12 +144,11 @@ class Worker(Runtime):
             await self.hold([s for s in tick.held + tick.taken if s not in handed])
             if handed:
                 await self.leases.release(handed)
-                shown = ", ".join(handed)
-                log.info("%s: handed %s over (fair share %d)", self.id, shown, tick.fair)
+                log.info("%s: handed %s over (fair share %d)", self.id, listed(handed), tick.fair)
         except (RedisError, OSError):
             pass  # the next tick reports the broker's state, and hands over again
         except Exception:  # the lease loop must outlive any one source that fails to start
-            log.exception("%s: following %s failed", self.id, ", ".join(tick.held + tick.taken))
+            log.exception("%s: following %s failed", self.id, listed(tick.held + tick.taken))
 
     async def follow_commands(self) -> None:
         """Execute the moves replicas send for sources held; reconnects after the broker."""
@@ -188,11 +194,20 @@ class Worker(Runtime):
             await self.redis.publish(reply, answer)
 
     async def close(self) -> None:
-        """Stop every source, then give the leases up so others take over at once."""
-        held = list(self.held)
-        await self.hold([])
-        with contextlib.suppress(RedisError, OSError):
-            await self.leases.leave(held)
+        """Stop following, give the leases up so others take over at once, then clean up.
+
+        Logging out of controllers and stopping embedded mocks takes a while;
+        the leases go back as soon as no acquisition runs, not after that.
+        """
+        async with self._lock:
+            running = [s.task for s in self.sources.values() if s.task is not None]
+            for task in running:
+                task.cancel()
+            await asyncio.gather(*running, return_exceptions=True)
+            with contextlib.suppress(RedisError, OSError):
+                await self.leases.leave(self.held)
+            await self.stop()
+            self.held = []
         await self.redis.aclose()
 
 
