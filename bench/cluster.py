@@ -356,7 +356,11 @@ def failover(cluster: Cluster) -> list[Case]:
         sig = signal.SIGKILL if how == "SIGKILL" else signal.SIGTERM
         act = functools.partial(victim.send_signal, sig)
         gaps = asyncio.run(gaps_when(cluster.ports[0], lost, act))
-        victim.wait(30)
+        try:
+            victim.wait(60)  # a clean stop logs out of every controller first
+        except subprocess.TimeoutExpired:
+            victim.kill()
+            victim.wait()
         cases.append(
             {
                 "how": how,

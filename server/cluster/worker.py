@@ -206,8 +206,9 @@ class Worker(Runtime):
             await asyncio.gather(*running, return_exceptions=True)
             with contextlib.suppress(RedisError, OSError):
                 await self.leases.leave(self.held)
-            await self.stop()
-            self.held = []
+            stopping = [source.stop() for source in self.sources.values()]
+            await asyncio.gather(*stopping, return_exceptions=True)  # logouts: 2 s at most each
+            self.sources, self.held = {}, []
         await self.redis.aclose()
 
 
