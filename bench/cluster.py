@@ -40,6 +40,8 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.error
+import urllib.request
 from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
@@ -54,7 +56,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 sys.path.insert(0, str(ROOT))
 from _report import markdown_table, publish  # noqa: E402
-from viewers import cpu_seconds, free_port, health, stop  # noqa: E402
+from viewers import cpu_seconds, free_port, stop  # noqa: E402
 
 from server.protocol import decode_frames  # noqa: E402
 
@@ -75,6 +77,17 @@ ARM_KINEMATICS = (
 Case = dict[str, Any]
 FAILOVER_WATCH_S = 8.0
 """How long a source's frames are watched after its worker is stopped."""
+
+
+def health(port: int) -> dict[str, Any]:
+    """A replica's /api/health, also when it answers 503 (no source live at that instant)."""
+    try:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/health", timeout=10) as resp:
+            return dict(json.load(resp))
+    except urllib.error.HTTPError as exc:
+        if exc.code != 503:
+            raise
+        return dict(json.load(exc))
 
 
 def cell_text(urls: list[str]) -> str:
