@@ -153,6 +153,8 @@ def main(argv: list[str] | None = None) -> None:
         print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
         sys.exit(2)
     where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    if settings.broker is not None:  # a web replica: the workers follow the sources
+        where = f"the acquisition workers of {settings.broker}"
     print(
         f"linkview: open http://{settings.host}:{settings.port}/  (data from {where})", flush=True
     )
