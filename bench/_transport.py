@@ -67,9 +67,9 @@ async def publish(
     while time.time() < WINDOW[1] or not waiting.done():
         while (now := time.time()) >= start + tick * TICK_S and now < WINDOW[1]:
             frames = [(name, STAMP.pack(now) + filler) for name in slots[tick % per_period]]
-            commands += await send(redis, transport, frames)
+            used = await send(redis, transport, frames)
             if WINDOW[0] <= now < WINDOW[1]:
-                sent += len(frames)
+                sent, commands = sent + len(frames), commands + used
             tick += 1
         await asyncio.sleep(max(0.0, start + tick * TICK_S - time.time()))
     return {"sent": sent, "commands": commands}
