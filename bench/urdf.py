@@ -8,12 +8,17 @@ Rows:
 * ``link_poses`` on one configuration (the server's per-frame call);
 * ``load_urdf`` + ``link_meshes`` for three robots (arm6: STL meshes; the test
   fixtures mesh_arm: STL and COLLADA behind package://, and serial6:
-  primitives) into an empty cache, then again into the filled one.
+  primitives) into an empty cache, then again into the filled one;
+* the same for every robot of the published corpus (``tests/urdf/corpus.py``:
+  descriptions from pybullet, airo-models and rtb-data, xacro included), one
+  row each: links, visuals, cold and cached load, in process CPU seconds (what
+  the work costs, whatever else runs on the machine) and wall seconds.
 
 Each figure is the median of several repeats; roboticstoolbox and our batch
 alternate within one process, so both see the same machine load.
 
-Usage: ``python bench/urdf.py [--repeats 7]``; writes docs/benchmarks.md.
+Usage: ``python bench/urdf.py [--repeats 7] [--quick]``; writes docs/benchmarks.md.
+``--quick`` runs one repeat of everything (the corpus once).
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ sys.path.insert(0, str(ROOT))
 from _report import markdown_table, publish  # noqa: E402
 
 from server.urdf import link_meshes, load_urdf  # noqa: E402
+from tests.urdf.corpus import CORPUS, Described  # noqa: E402
 
 BATCH = 100_000
 ARM6 = ROOT / "cells" / "examples" / "arm6" / "arm6_description"
@@ -90,6 +96,67 @@ def rtb_ets(path: Path) -> rtb.ETS:
 
         elinks, name, _ = URDF_file(io.StringIO(etree.tostring(root, encoding="unicode")))
         return rtb.Robot(elinks, name=name).ets()
+
+
+def cpu_and_wall(call: Callable[[], object]) -> tuple[float, float]:
+    """Process CPU seconds and wall seconds of one call."""
+    cpu, wall = time.process_time(), time.perf_counter()
+    call()
+    return time.process_time() - cpu, time.perf_counter() - wall
+
+
+def corpus_row(robot: Described, folder: Path, repeats: int) -> dict[str, float]:
+    """Median cold and cached load of one corpus robot (CPU and wall seconds), its size."""
+    def load(cache: Path) -> None:
+        link_meshes(load_urdf(robot.path, robot.package_folders, args=robot.args), cache)
+
+    cold, warm = [], []
+    for k in range(repeats):
+        cache = folder / f"{robot.name}-{k}"
+        cold.append(cpu_and_wall(lambda: load(cache)))  # noqa: B023
+        warm.append(cpu_and_wall(lambda: load(cache)))  # noqa: B023
+    loaded = load_urdf(robot.path, robot.package_folders, args=robot.args)
+    return {
+        "links": len(loaded.link_names),
+        "visuals": sum(len(v) for v in loaded.visuals.values()),
+        "cold_cpu": statistics.median(c for c, _ in cold),
+        "cold_wall": statistics.median(w for _, w in cold),
+        "warm_cpu": statistics.median(c for c, _ in warm),
+        "warm_wall": statistics.median(w for _, w in warm),
+        "glb_mb": sum(p.stat().st_size for p in link_meshes(loaded, folder / f"{robot.name}-0")
+                      .files.values()) / 1e6,
+    }  # fmt: skip
+
+
+def corpus_table(repeats: int) -> tuple[str, str]:
+    """The corpus table and a line on its largest robot against the floors."""
+    with tempfile.TemporaryDirectory() as tmp:
+        load_urdf(CORPUS[0].path)  # imports yourdfpy's and trimesh's readers once
+        rows = {robot.name: corpus_row(robot, Path(tmp), repeats) for robot in CORPUS}
+    header = ["robot", "from", "links", "visuals", "GLB MB", "cold CPU s", "cold wall s",
+              "cached CPU ms", "cached wall ms"]  # fmt: skip
+    body = [
+        [robot.title.split(",")[0], robot.module, str(int(r["links"])), str(int(r["visuals"])),
+         f"{r['glb_mb']:.1f}", f"{r['cold_cpu']:.2f}", f"{r['cold_wall']:.2f}",
+         f"{1e3 * r['warm_cpu']:.0f}", f"{1e3 * r['warm_wall']:.0f}"]
+        for robot in CORPUS
+        for r in [rows[robot.name]]
+    ]  # fmt: skip
+    largest = max(CORPUS, key=lambda r: (rows[r.name]["links"], rows[r.name]["visuals"]))
+    big = rows[largest.name]
+    slowest = max(CORPUS, key=lambda robot: rows[robot.name]["cold_cpu"])
+    slow = rows[slowest.name]
+    summary = (
+        f"Largest robot: {largest.title} ({int(big['links'])} links, {int(big['visuals'])} "
+        f"visuals): cold {big['cold_cpu']:.2f} s CPU ({big['cold_wall']:.2f} s wall), floor 5 s: "
+        f"{verdict(big['cold_cpu'] <= 5.0, 'over', WHY['cold'])}; cached "
+        f"{1e3 * big['warm_cpu']:.0f} ms CPU ({1e3 * big['warm_wall']:.0f} ms wall), floor 1 s: "
+        f"{verdict(big['warm_cpu'] <= 1.0, 'over', WHY['warm'])}. Slowest cold: "
+        f"{slowest.title} ({slow['glb_mb']:.1f} MB of GLB), {slow['cold_cpu']:.2f} s CPU. "
+        f"Whole corpus: {sum(r['cold_cpu'] for r in rows.values()):.1f} s CPU cold, "
+        f"{sum(r['warm_cpu'] for r in rows.values()):.2f} s cached."
+    )
+    return markdown_table(header, body), summary
 
 
 def load_all(cache: Path) -> None:
@@ -147,8 +214,11 @@ def start_to_streaming(cell: Path, cache: Path) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
-    repeats = parser.parse_args().repeats
+    parser.add_argument("--quick", action="store_true", help="one repeat of everything")
+    options = parser.parse_args()
+    repeats = 1 if options.quick else options.repeats
     load_before = os.getloadavg()[0]
+    corpus, corpus_summary = corpus_table(1 if options.quick else 3)
     with tempfile.TemporaryDirectory() as tmp:
         first_cold = seconds(lambda: load_all(Path(tmp) / "first"))  # imports trimesh's readers
         colds, warms = [], []
@@ -158,7 +228,7 @@ def main() -> None:
             warms.append(seconds(lambda cache=cache: load_all(cache)))  # type: ignore[misc]
         cell = cell_of_three(Path(tmp))
         starts_cold, starts_warm = [], []
-        for k in range(3):
+        for k in range(1 if options.quick else 3):
             cache = Path(tmp) / f"start{k}"
             starts_cold.append(start_to_streaming(cell, cache))
             starts_warm.append(start_to_streaming(cell, cache))
@@ -235,7 +305,19 @@ def main() -> None:
         "and trimesh), the embedded mock and the first samples to the cell start."
     )
     table = markdown_table(header, rows)
-    publish("bench/urdf.py", "URDF robots", f"{table}\n\n{notes}\n")
+    corpus_notes = (
+        f"Published robot descriptions ({len(CORPUS)}, `tests/urdf/corpus.py`): "
+        "`load_urdf` (xacro expanded) + `link_meshes`, into an empty cache (cold) and again "
+        "into the filled one (cached); median of "
+        f"{1 if options.quick else 3} repeats. CPU seconds are this process's; wall seconds "
+        "add whatever else the machine was running."
+    )
+    publish(
+        "bench/urdf.py",
+        "URDF robots",
+        f"{table}\n\n{notes}\n\n### Published robots\n\n{corpus_notes}\n\n{corpus}\n\n"
+        f"{corpus_summary}\n",
+    )
 
 
 if __name__ == "__main__":

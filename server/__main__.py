@@ -87,6 +87,19 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         default=None,
         help="do not verify the controller's HTTPS certificate (not recommended)",
     )
+    look_back = parser.add_argument_group("look back (docs/recording.md)")
+    look_back.add_argument(
+        "--history", type=float, metavar="SECONDS", help="seconds the timeline reaches back (600)"
+    )
+    look_back.add_argument(
+        "--record", metavar="DIR", help="record every source to MCAP files in DIR"
+    )
+    look_back.add_argument(
+        "--replay", metavar="FILE", help="serve an MCAP recording as if live (--cell: its cell)"
+    )
+    look_back.add_argument(
+        "--foxglove", type=int, metavar="PORT", help="serve the data live to Foxglove on PORT"
+    )
     parser.add_argument(
         "--broker",
         metavar="URL",
@@ -108,6 +121,10 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         "ctrlx_api": args.api,
         "ctrlx_ca": args.ctrlx_ca,
         "insecure": args.insecure,
+        "history_s": args.history,
+        "record": args.record,
+        "replay": args.replay,
+        "foxglove_port": args.foxglove,
         "broker": args.broker,
     }
     try:
@@ -118,7 +135,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
 
 
 def check(argv: list[str]) -> int:
-    """Check cell files: one line per robot, or every mistake with its key; the exit status."""
+    """Check cell files: one line per robot and its warnings, or every mistake; the exit status."""
     parser = argparse.ArgumentParser(prog="python -m server check", description=check.__doc__)
     parser.add_argument("files", nargs="+", metavar="FILE", help="cell files to check")
     status = 0
@@ -135,6 +152,8 @@ def check(argv: list[str]) -> int:
                 f"{name}: {robot.name}: {robot.family}, {len(robot.joints)} joints, "
                 f"source {robot.source}, {meshes} meshes"
             )
+            for warning in robot.warnings:
+                print(f"{name}: {robot.name}: warning: {warning}")
     return status
 
 
@@ -152,7 +171,10 @@ def main(argv: list[str] | None = None) -> None:
     except CellError as exc:  # refuse to start, with the same message as `check`
         print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
         sys.exit(2)
-    where = ", ".join(s.url or f"{s.name} (embedded mock)" for s in cell.sources)
+    where = ", ".join(
+        s.url or (f"{s.name} (replay of {s.replay})" if s.replay else f"{s.name} (embedded mock)")
+        for s in cell.sources
+    )
     if settings.broker is not None:  # a web replica: the workers follow the sources
         where = f"the acquisition workers of {settings.broker}"
     print(

@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Literal
 from urllib.parse import urlsplit
 
-from pydantic import Field, SecretStr, field_validator
+from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from .ctrlx import check_base_url, client_ssl
@@ -50,11 +50,39 @@ class Settings(BaseSettings):
     request_timeout_s: float = Field(5.0, gt=0.0)
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
+    # Look back (docs/recording.md).
+    history_s: float = Field(600.0, gt=0.0, le=86_400.0)
+    """Seconds of samples every source keeps for the timeline (memory is allocated up front)."""
+    record: Path | None = None
+    """Folder to record every source to, as MCAP files (one per hour or 500 MB)."""
+    replay: Path | None = None
+    """An MCAP recording to serve as if live (with --cell: the cell to replay it with)."""
+    foxglove_port: int | None = Field(None, ge=0, le=65535)
+    """Serve the same data live over Foxglove's WebSocket protocol on this port (same host)."""
+    # A cluster (docs/cluster.md).
     broker: str | None = None
     """``redis://HOST:PORT/DB``: run as one role of a cluster sharing this Redis server."""
     broker_password: SecretStr | None = None
     broker_lease_s: float = Field(1.2, ge=0.2, le=60.0)
     """A worker that stops renewing its lease loses its sources to another after this long."""
+
+    @model_validator(mode="after")
+    def _one_process_only(self) -> Settings:
+        # The look-back features read the history the acquisition feeds in the same process;
+        # a replica has no acquisition, and its history stays empty (docs/cluster.md).
+        if self.broker is not None:
+            given = [
+                flag
+                for flag, value in (
+                    ("--record", self.record),
+                    ("--replay", self.replay),
+                    ("--foxglove", self.foxglove_port),
+                )
+                if value is not None
+            ]
+            if given:
+                raise ValueError(f"{', '.join(given)} run in one process, not with --broker yet")
+        return self
 
     @field_validator("ctrlx_url")
     @classmethod

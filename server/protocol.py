@@ -41,7 +41,10 @@ class JointInfo(_Message):
 class LinkInfo(_Message):
     name: str
     mesh: str | None
-    """URL of the link's glTF binary (origin = link frame); None: the page draws a stand-in."""
+    """URL of the link's glTF binary (origin = link frame); None: nothing to draw for it.
+
+    Where no link of a robot has a mesh, the page draws ball-and-stick stand-ins.
+    """
 
 
 class RobotInfo(_Message):
@@ -57,6 +60,9 @@ class RobotInfo(_Message):
     links: list[LinkInfo]
     base: Pose7
     """Where the robot base sits in the cell (world frame, Z up)."""
+    warnings: list[str] = []
+    """What its description holds that cannot be shown as written (a missing mesh, a
+    floating joint drawn fixed); the robot runs all the same."""
 
 
 class SourceStatus(_Message):

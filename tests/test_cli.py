@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -11,11 +12,14 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_server(*args: str) -> subprocess.CompletedProcess[str]:
-    """``python -m server ARGS`` from the repository root, its output captured."""
+def run_server(
+    *args: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``python -m server ARGS`` from the repository root (``env`` added), its output captured."""
     return subprocess.run(
         [sys.executable, "-m", "server", *args],
         cwd=ROOT,
+        env=None if env is None else {**os.environ, **env},
         text=True,
         capture_output=True,
         timeout=60,

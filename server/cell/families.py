@@ -53,6 +53,8 @@ class Built:
     tcp_is_last_link: bool
     meshes: tuple[Path | None, ...] = ()
     """Per link, a GLB the family brought along (URDF visuals); empty: none."""
+    warnings: tuple[str, ...] = ()
+    """What the description holds that cannot be shown as written (it still runs)."""
 
 
 def pose_matrix(pose: schema.Pose) -> Array:
@@ -197,7 +199,7 @@ def _urdf(spec: schema.Urdf, where: Where) -> Built:
 
     packages = {name: where.resolve(folder) for name, folder in spec.packages.items()}
     try:
-        robot = load_urdf(where.resolve(spec.file), packages, spec.tip)
+        robot = load_urdf(where.resolve(spec.file), packages, spec.tip, spec.args)
         glbs = link_meshes(robot, where.cache_dir)
     except UrdfError as exc:
         raise SpecError("file", str(exc)) from None
@@ -215,7 +217,8 @@ def _urdf(spec: schema.Urdf, where: Where) -> Built:
         ),
         linear=tuple(unit == "m" for unit in chain.joint_units),
         tcp_is_last_link=False,
-        meshes=tuple(glbs.get(link) for link in chain.link_names),
+        meshes=tuple(glbs.files.get(link) for link in chain.link_names),
+        warnings=robot.warnings + glbs.warnings,
     )
 
 

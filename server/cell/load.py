@@ -51,6 +51,8 @@ class Source:
     insecure: bool = False
     period_s: float | None = None
     allow_commands: bool = False
+    replay: Path | None = None
+    """A recording played instead of reading a data layer (``url`` is then None)."""
 
 
 @dataclass(frozen=True)
@@ -191,6 +193,11 @@ class _Builder:
                 client_ssl(ca)
             except ValueError as exc:
                 self.problems.append((f"{key}.ca", str(exc)))
+        replay = None if spec.replay is None else self.where.resolve(spec.replay)
+        if replay is not None and spec.url is not None:
+            self.problems.append((f"{key}.replay", "a source replays a recording or has a url"))
+        elif replay is not None and not replay.is_file():
+            self.problems.append((f"{key}.replay", f"no such file: {replay}"))
         if len(self.problems) > problems:
             return None
         return Source(
@@ -204,6 +211,7 @@ class _Builder:
             insecure=spec.insecure,
             period_s=None if spec.period_ms is None else spec.period_ms / 1000.0,
             allow_commands=spec.allow_commands,
+            replay=replay,
         )
 
     def _robot(self, key: str, spec: schema.Robot) -> Robot | None:
@@ -230,6 +238,7 @@ class _Builder:
             tcp_is_last_link=built.tcp_is_last_link,
             command_node=spec.command_node or DEFAULT_COMMAND_NODE.format(robot=spec.name),
             demo_targets=targets,
+            warnings=built.warnings,
         )
 
     def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:

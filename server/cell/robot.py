@@ -78,6 +78,8 @@ class Robot:
     """Node taking ``{"axsPos": [...]}`` (node units) for a synchronised move."""
     demo_targets: tuple[tuple[float, ...], ...] = ()
     """Positions (node units) an embedded mock cycles through; empty: drawn within limits."""
+    warnings: tuple[str, ...] = ()
+    """What its description holds that cannot be shown as written (a missing mesh, ...)."""
 
     def poses(self, q: Array) -> tuple[Array, Array, BoolArray]:
         """Link poses ``(..., n, 4, 4)``, TCP ``(..., 4, 4)`` and ``ok`` for joints ``q`` (SI)."""
@@ -134,6 +136,7 @@ class Robot:
             ],
             links=[LinkInfo(name=n, mesh=self.mesh_url(i)) for i, n in enumerate(self.link_names)],
             base=list(self.base),
+            warnings=list(self.warnings),
         )
 
 

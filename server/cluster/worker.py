@@ -26,6 +26,7 @@ from redis.asyncio import Redis
 from redis.exceptions import RedisError
 
 from ..cell import Cell
+from ..history import History
 from ..runtime import MoveError, Runtime, SourceDefaults
 from ..runtime.reload import follow_cell_file
 from .broker import (
@@ -40,6 +41,8 @@ from .lease import Leases, Tick
 from .publisher import BrokerHub
 
 log = logging.getLogger(__name__)
+
+WORKER_HISTORY_S = 1.0
 
 
 def listed(names: list[str], most: int = 8) -> str:
@@ -56,7 +59,9 @@ class Worker(Runtime):
     def __init__(self, cell: Cell, defaults: SourceDefaults, broker: BrokerSettings) -> None:
         self.id = member_id("acquire")
         self.redis: Redis = connect(broker.url, broker.password, broker.lease_s / 2)
-        super().__init__(cell, defaults, BrokerHub(self.redis, self._describe))
+        # Nothing reads a worker's history (replicas serve viewers): a second of it will do.
+        history = History(WORKER_HISTORY_S)
+        super().__init__(cell, defaults, BrokerHub(self.redis, self._describe), history=history)
         self.whole = cell
         """The cell file's cell; ``self.cell`` holds only the sources held."""
         self.held: list[str] = []

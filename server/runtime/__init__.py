@@ -14,6 +14,7 @@ import numpy as np
 
 from ..cell import Cell, Robot
 from ..ctrlx import DataLayerError
+from ..history import History
 from ..stream import PROTOCOL_VERSIONS, Hub, Message, SourceHealth, cell_message, hello_message
 from .source import RunningSource, SourceDefaults, fingerprint, may_command, start_source
 
@@ -57,11 +58,14 @@ class Runtime:
     cell_error: str | None = None
     """Why the cell file on disk could not be loaded (the running cell stays)."""
     session: str = field(default_factory=lambda: secrets.token_hex(8))
+    history: History = field(default_factory=lambda: History(SourceDefaults.history_s))
+    """Every source's recent samples (the timeline, recordings, the Foxglove endpoint)."""
 
     @classmethod
     async def start(cls, cell: Cell, defaults: SourceDefaults | None = None) -> Runtime:
         """Start every source of ``cell``."""
-        runtime = cls(cell, defaults or SourceDefaults())
+        defaults = defaults or SourceDefaults()
+        runtime = cls(cell, defaults, history=History(defaults.history_s))
         await runtime.apply(cell)
         return runtime
 
@@ -81,13 +85,18 @@ class Runtime:
         started: list[RunningSource] = []
         for name, config in wanted.items():
             if name not in kept:
-                running = await start_source(config, cell.robots_of(name), self.hub, self.defaults)
+                running = await start_source(
+                    config, cell.robots_of(name), self.hub, self.defaults, self.history
+                )
                 started.append(running)
                 kept[name] = running
         # From here on nothing awaits: viewers get the new hello before any new frame.
         for name, running in kept.items():
             running.robots = cell.robots_of(name)
             running.acquisition.set_robots(running.robots, indices)
+        if self.sources:  # not the first start: a reload
+            self.history.marks.add("reload", f"cell {self._path or '(built in)'} reloaded")
+        self.history.keep_only(wanted)
         self.sources = {s.name: kept[s.name] for s in cell.sources}
         self.cell, self.cell_error = cell, None
         self.hub.restart()

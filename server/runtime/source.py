@@ -6,11 +6,15 @@ import asyncio
 import logging
 from dataclasses import dataclass, field
 
+import numpy as np
 from aiohttp import web
 
 from ..cell import Robot, Source
-from ..ctrlx import Credentials, DataLayerClient, Mode, check_base_url, client_ssl
+from ..ctrlx import Credentials, DataLayerClient, DataLayerError, Mode, check_base_url, client_ssl
+from ..history import History
+from ..history.ring import Array, IntArray
 from ..mock_ctrlx import build_app, serve
+from ..recording import SourceReplay, load_source
 from ..stream import Acquisition, Hub, PollSettings, SourceHealth
 from .simulation import machine_for
 
@@ -26,6 +30,8 @@ class SourceDefaults:
     keepalive_s: float = 1.0
     timeout_s: float = 5.0
     allow_commands: bool = False
+    history_s: float = 600.0
+    """Seconds of samples every source keeps (see server.history)."""
 
 
 @dataclass
@@ -62,7 +68,12 @@ class RunningSource:
 
 
 def may_command(config: Source, allow_commands: bool) -> bool:
-    """Whether moves may be sent to ``config``: an embedded mock, or allowed by cell or flag."""
+    """Whether moves may be sent to ``config``: an embedded mock, or allowed by cell or flag.
+
+    A recording being replayed cannot be moved.
+    """
+    if config.replay is not None:
+        return False
     return config.url is None or config.allow_commands or allow_commands
 
 
@@ -75,9 +86,15 @@ def fingerprint(config: Source, robots: list[Robot]) -> object:
 
 
 async def start_source(
-    config: Source, robots: list[Robot], hub: Hub, defaults: SourceDefaults
+    config: Source,
+    robots: list[Robot],
+    hub: Hub,
+    defaults: SourceDefaults,
+    history: History | None = None,
 ) -> RunningSource:
     """Ready to follow ``config`` for ``robots`` (a mock first if it has no URL); then ``begin``."""
+    if config.replay is not None:
+        return await _start_replay(config, robots, hub, history or History(defaults.history_s))
     mock: web.AppRunner | None = None
     url = config.url
     if url is None:
@@ -94,7 +111,44 @@ async def start_source(
     health = SourceHealth(name=config.name, url=url, mock=mock is not None)
     period = config.period_s or defaults.period_s
     poll = PollSettings(period, config.mode or defaults.mode, keepalive_s=defaults.keepalive_s)
-    acquisition = Acquisition(client, robots, hub, health, poll)
+    tap = None if history is None else history.source(config.name, nodes_of(robots), period)
+    acquisition = Acquisition(client, robots, hub, health, poll, tap=tap)
     return RunningSource(
         config, robots, client, health, acquisition, fingerprint(config, robots), mock
     )
+
+
+def nodes_of(robots: list[Robot]) -> list[str]:
+    """Every node the robots read."""
+    return [node for robot in robots for node in robot.nodes]
+
+
+REPLAY_CLIENT_URL = "http://127.0.0.1:9"
+"""A replay has a client only so it fits where sources have one; it never connects."""
+
+
+async def _start_replay(
+    config: Source, robots: list[Robot], hub: Hub, history: History
+) -> RunningSource:
+    """A source whose samples come from a recording; its history is the whole file."""
+    assert config.replay is not None
+    try:
+        # Reading a long recording takes a while: not on the event loop.
+        replay = await asyncio.to_thread(load_source, config.replay, config.name, robots)
+    except DataLayerError as exc:  # the source shows the error; the server and others go on
+        log.error("source %s: %s", config.name, exc)
+        nodes = tuple(sorted(set(nodes_of(robots))))
+        replay = SourceReplay(config.name, nodes, *_empty(len(nodes)))
+    tap = history.source(config.name, replay.nodes, replay.period_s, samples=max(2, len(replay.t)))
+    tap.ring.write_many(replay.seq, replay.t, replay.values)
+    tap.frozen = True
+    log.info("source %s: replaying %d samples of %s", config.name, len(replay.t), config.replay)
+    client = DataLayerClient(REPLAY_CLIENT_URL, Credentials(config.user, config.password))
+    health = SourceHealth(name=config.name, url=f"replay:{config.replay.name}")
+    poll = PollSettings(replay.period_s)
+    acquisition = Acquisition(client, robots, hub, health, poll, tap=tap, samples=replay.play)
+    return RunningSource(config, robots, client, health, acquisition, fingerprint(config, robots))
+
+
+def _empty(columns: int) -> tuple[Array, IntArray, Array]:
+    return np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros((0, columns))

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 
 from ..cell import Cell, CellError, load_cell
 from ..config import Settings
 from ..paths import DEMO_CELL
+from ..recording import replay_cell
 from .source import SourceDefaults
+
+log = logging.getLogger(__name__)
 
 
 def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
@@ -16,8 +20,16 @@ def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
 
     ``--ctrlx URL`` (with ``LINKVIEW_CTRLX_*``) points a one-source cell at a
     controller, which is how the demo cell meets real hardware without a file.
+    With ``--replay FILE`` every source plays that recording instead.
     """
-    return with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+    if settings.replay is not None:
+        cell = replay_cell(settings.replay, path or settings.cell)
+    else:
+        cell = with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+    for robot in cell.robots:
+        for warning in robot.warnings:
+            log.warning("robot %s: %s", robot.name, warning)
+    return cell
 
 
 def with_controller(cell: Cell, settings: Settings) -> Cell:
@@ -50,4 +62,5 @@ def source_defaults(settings: Settings) -> SourceDefaults:
         keepalive_s=settings.keepalive_s,
         timeout_s=settings.request_timeout_s,
         allow_commands=settings.allow_commands,
+        history_s=settings.history_s,
     )

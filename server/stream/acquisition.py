@@ -22,7 +22,7 @@ from .buckets import Buckets
 from .frames import RobotFrame, compute_frame, encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
-from .types import RobotSample
+from .types import NoTap, RobotSample, SampleStream, SampleTap
 
 log = logging.getLogger(__name__)
 
@@ -57,8 +57,14 @@ class Acquisition:
         health: SourceHealth,
         settings: PollSettings = PollSettings(),
         indices: Mapping[str, int] | None = None,
+        tap: SampleTap | None = None,
+        samples: SampleStream | None = None,
     ) -> None:
         self._client = client
+        self.tap: SampleTap = tap or NoTap()
+        """Sees every sample and state change (the source's history)."""
+        self._samples = samples
+        """Samples from elsewhere than the data layer (a replay); default: follow the client."""
         self._hub = hub
         self.health = health
         self.health.period_s = settings.period_s
@@ -93,12 +99,16 @@ class Acquisition:
         retry = self._settings.retry_min_s
         while True:
             try:
-                samples = follow(
-                    self._client,
-                    self._nodes,
-                    self._settings.period_s,
-                    self._settings.mode,
-                    keepalive_s=self._settings.keepalive_s,
+                samples = (
+                    self._samples()
+                    if self._samples is not None
+                    else follow(
+                        self._client,
+                        self._nodes,
+                        self._settings.period_s,
+                        self._settings.mode,
+                        keepalive_s=self._settings.keepalive_s,
+                    )
                 )
                 async with contextlib.aclosing(samples):
                     async for sample in samples:
@@ -124,6 +134,7 @@ class Acquisition:
 
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
+        self.tap.sample(self._seq, sample)
         if self.health.mark_sample():
             self.publish_status()
         start = time.perf_counter()
@@ -172,5 +183,6 @@ class Acquisition:
         self.health.warning = self._client.warning
         self._status_sent = time.monotonic()
         self._state_sent = self.health.current_state()
+        self.tap.state(self._state_sent, self.health.status().error)
         message = Message(self.health.status_message())
         self._hub.publish(f"status:{self.health.name}", message)

@@ -2,12 +2,35 @@
 
 from __future__ import annotations
 
+from collections.abc import AsyncGenerator, Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from ..ctrlx import Sample
+
 Array = npt.NDArray[np.float64]
+SampleStream = Callable[[], AsyncGenerator[Sample, None]]
+"""Where a source's samples come from when it is no data layer (a replayed recording)."""
+
+
+class SampleTap(Protocol):
+    """What else sees a source's samples (its history); ``sample`` is on the hot path."""
+
+    def sample(self, seq: int, sample: Sample) -> None: ...
+    def state(self, state: str, error: str | None) -> None: ...
+
+
+class NoTap:
+    """A tap that keeps nothing."""
+
+    def sample(self, seq: int, sample: Sample) -> None:
+        """Ignore the sample."""
+
+    def state(self, state: str, error: str | None) -> None:
+        """Ignore the state."""
 
 
 @dataclass(frozen=True)

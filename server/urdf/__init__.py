@@ -1,16 +1,21 @@
 """URDF robots: files read into ``UrdfRobot`` (kinematics + visuals) and link meshes as GLB.
 
-All file I/O for URDF robots lives here; the kinematics are ``server.kinematics.UrdfChain``.
+All file I/O for URDF robots lives here: ``loader`` reads a file (``_xacro`` expands
+xacro, ``_xml`` cleans and checks the XML, ``_paths`` finds packages and meshes),
+``meshes`` converts each link's visuals to one GLB. The kinematics are
+``server.kinematics.urdf``.
 """
 
 from .loader import load_urdf
-from .meshes import convert_link, link_meshes, mesh_key
+from .meshes import LinkMeshes, convert_link, link_meshes, mesh_key
 from .model import (
     BoxGeometry,
+    CapsuleGeometry,
     CylinderGeometry,
     Geometry,
     MeshGeometry,
     SphereGeometry,
+    StandInGeometry,
     UrdfError,
     UrdfRobot,
     Visual,
@@ -18,10 +23,13 @@ from .model import (
 
 __all__ = [
     "BoxGeometry",
+    "CapsuleGeometry",
     "CylinderGeometry",
     "Geometry",
     "MeshGeometry",
+    "LinkMeshes",
     "SphereGeometry",
+    "StandInGeometry",
     "UrdfError",
     "UrdfRobot",
     "Visual",

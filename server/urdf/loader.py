@@ -1,8 +1,17 @@
-"""Read a URDF file into a ``UrdfRobot``: parsed by yourdfpy, checked here, paths resolved."""
+"""Read a URDF or xacro file into a ``UrdfRobot``: cleaned with lxml, parsed by yourdfpy.
+
+The steps: xacro files are expanded (``_xacro``); the XML is cut down to what
+linkview uses and checked with line numbers (``_xml``); yourdfpy reads what is
+left; mesh references are resolved (``_paths``). What cannot be shown as
+written but need not stop the robot (a missing mesh, a floating joint) becomes
+a warning on the robot; anything else is a UrdfError that says where.
+"""
 
 from __future__ import annotations
 
+import io
 import logging
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -13,9 +22,11 @@ from lxml import etree
 
 from server.kinematics.urdf import UrdfChain, UrdfJoint, UrdfMimic, UrdfTree
 
-from ._paths import resolve_mesh
+from . import _xacro, _xml
+from ._paths import Packages, resolve_mesh
 from .model import (
     BoxGeometry,
+    CapsuleGeometry,
     CylinderGeometry,
     Geometry,
     MeshGeometry,
@@ -23,47 +34,12 @@ from .model import (
     UrdfError,
     UrdfRobot,
     Visual,
+    stand_in,
 )
 
-_XACRO = "http://www.ros.org/wiki/xacro"
-
-
-def _parse_xml(path: Path) -> Any:
-    """The XML root of ``path``; UrdfError for a missing file or malformed XML (with its line)."""
-    if not path.is_file():
-        raise UrdfError(f"URDF file {path} not found")
-    try:
-        parser = etree.XMLParser(remove_blank_text=True, remove_comments=True)
-        root = etree.parse(str(path), parser).getroot()
-    except etree.XMLSyntaxError as exc:
-        raise UrdfError(f"{path}: malformed XML, line {exc.lineno}: {exc.msg}") from None
-    if root.tag != "robot":
-        raise UrdfError(f"{path}: the root element is <{root.tag}>, not <robot>")
-    if any(isinstance(el.tag, str) and el.tag.startswith("{" + _XACRO) for el in root.iter()):
-        raise UrdfError(f"{path} is a xacro file: expand it to plain URDF with xacro first")
-    for el in root.iter("link", "joint"):
-        if not el.get("name"):
-            raise UrdfError(f"{path}, line {el.sourceline}: <{el.tag}> without a name")
-    for el in root.iter("visual"):
-        geometry = el.find("geometry")
-        shapes = [] if geometry is None else [str(child.tag) for child in geometry]
-        if len(shapes) != 1 or shapes[0] not in ("box", "cylinder", "sphere", "mesh"):
-            raise UrdfError(
-                f"{path}, line {el.sourceline}: a <visual> needs a <geometry> holding one "
-                f"box, cylinder, sphere or mesh (found: {', '.join(shapes) or 'nothing'})"
-            )
-        mesh = el.find("geometry/mesh")
-        if mesh is not None and not mesh.get("filename"):
-            raise UrdfError(f"{path}, line {mesh.sourceline}: <mesh> without a filename")
-    for el in root.iter("joint"):
-        for role in ("parent", "child"):
-            ref = el.find(role)
-            if ref is None or not ref.get("link"):
-                raise UrdfError(
-                    f"{path}, line {el.sourceline}: joint {el.get('name')!r} has no "
-                    f'<{role} link="..."/>'
-                )
-    return root
+Rgba = tuple[float, float, float, float]
+Vec3 = tuple[float, float, float]
+_NAMED = re.compile(r"(joint|link) '([^']*)'")
 
 
 def _joint(joint: Any) -> UrdfJoint:
@@ -89,84 +65,177 @@ def _joint(joint: Any) -> UrdfJoint:
     )
 
 
-def _scale(scale: Any) -> tuple[float, float, float]:
+def _scale(scale: Any) -> Vec3:
     if scale is None:
         return (1.0, 1.0, 1.0)
     values = np.broadcast_to(np.asarray(scale, dtype=np.float64).reshape(-1), (3,))
     return (float(values[0]), float(values[1]), float(values[2]))
 
 
-def _geometry(geometry: Any, link: str, urdf_dir: Path, packages: Mapping[str, Path]) -> Geometry:
-    if geometry.mesh is not None:
-        uri = geometry.mesh.filename or ""
-        path = resolve_mesh(uri, link, urdf_dir, packages)
-        return MeshGeometry(path, _scale(geometry.mesh.scale), uri)
-    if geometry.box is not None:
-        size = np.asarray(geometry.box.size, dtype=np.float64)
-        return BoxGeometry((float(size[0]), float(size[1]), float(size[2])))
-    if geometry.cylinder is not None:
-        return CylinderGeometry(float(geometry.cylinder.radius), float(geometry.cylinder.length))
-    if geometry.sphere is not None:
-        return SphereGeometry(float(geometry.sphere.radius))
-    raise UrdfError(f"link {link!r}: a <visual> without a box, cylinder, sphere or mesh")
+def _rgba(material: Any) -> Rgba | None:
+    if material is None or material.color is None:
+        return None
+    c = np.asarray(material.color.rgba, dtype=np.float64)
+    return (float(c[0]), float(c[1]), float(c[2]), float(c[3]))
 
 
-def _colours(robot: Any) -> dict[str, tuple[float, float, float, float]]:
+def _colours(robot: Any) -> dict[str, Rgba]:
     """Named material colours: top-level ones, then any defined inside a visual."""
-    named: dict[str, tuple[float, float, float, float]] = {}
+    named: dict[str, Rgba] = {}
     materials = list(robot.materials) + [
         visual.material for link in robot.links for visual in link.visuals if visual.material
     ]
     for material in materials:
-        if material.name and material.color is not None and material.name not in named:
-            rgba = np.asarray(material.color.rgba, dtype=np.float64)
-            named[material.name] = (float(rgba[0]), float(rgba[1]), float(rgba[2]), float(rgba[3]))
+        rgba = _rgba(material)
+        if material.name and rgba is not None and material.name not in named:
+            named[material.name] = rgba
     return named
 
 
-def _visuals(robot: Any, path: Path, packages: Mapping[str, Path]) -> dict[str, tuple[Visual, ...]]:
+class _Reader:
+    """One description file being read: where it is, its packages, what it warned about."""
+
+    def __init__(self, path: Path, packages: Packages, args: Mapping[str, str]) -> None:
+        self.path = path
+        self.packages = packages
+        self.args = args
+        self.expanded = False
+        self.folders = [path.parent]
+        """Where relative mesh paths are looked for: the file's folder, then its includes'."""
+        self.warnings: list[str] = []
+
+    def where(self, el: Any) -> str:
+        """Where ``el`` is, for messages: the file and line (of the expanded text for xacro)."""
+        if self.expanded:
+            return f"{self.path}, line {el.sourceline} of its xacro output"
+        return f"{self.path}, line {el.sourceline}"
+
+    def root(self) -> Any:
+        """The ``<robot>`` element, xacro expanded where the file uses it."""
+        if _xacro.is_xacro(self.path):
+            return self._expand()
+        if not self.path.is_file():
+            raise UrdfError(f"URDF file {self.path} not found")
+        try:
+            data = self.path.read_bytes()
+        except OSError as exc:
+            raise UrdfError(f"URDF file {self.path}: cannot read it ({exc.strerror})") from None
+        root = _xml.parse(data, str(self.path))
+        return self._expand() if _xml.uses_xacro(root) else root
+
+    def _expand(self) -> Any:
+        expanded = _xacro.expand(self.path, self.args, self.packages)
+        self.warnings += expanded.warnings
+        self.expanded = True
+        self.folders += [f.parent for f in expanded.included if f.parent not in self.folders]
+        return _xml.parse(expanded.text.encode(), f"{self.path} (expanded by xacro)")
+
+    def locate(self, message: str, cleaned: _xml.Cleaned) -> str:
+        """``message`` prefixed with where the first joint or link it names is."""
+        for kind, name in _NAMED.findall(message):
+            el = cleaned.elements.get(f"{kind} {name!r}")
+            if el is not None:
+                return f"{self.where(el)}: {message}"
+        return f"{self.path}: {message}"
+
+    def geometry(self, geometry: Any, link: str) -> Geometry:
+        if geometry.mesh is not None:
+            uri = geometry.mesh.filename or ""
+            path = resolve_mesh(uri, link, self.folders, self.packages)
+            return MeshGeometry(path, _scale(geometry.mesh.scale), uri)
+        if geometry.box is not None:
+            size = np.asarray(geometry.box.size, dtype=np.float64)
+            return BoxGeometry((float(size[0]), float(size[1]), float(size[2])))
+        if geometry.cylinder is not None:
+            return CylinderGeometry(
+                float(geometry.cylinder.radius), float(geometry.cylinder.length)
+            )
+        assert geometry.sphere is not None  # _xml.clean let no other shape through
+        return SphereGeometry(float(geometry.sphere.radius))
+
+
+def _empty(geometry: Geometry) -> bool:
+    """True for a primitive with no volume (``<sphere radius="0"/>``): nothing to draw."""
+    if isinstance(geometry, BoxGeometry):
+        return min(geometry.size) <= 0.0
+    if isinstance(geometry, CylinderGeometry):
+        return geometry.radius <= 0.0 or geometry.length <= 0.0
+    if isinstance(geometry, CapsuleGeometry | SphereGeometry):
+        return geometry.radius <= 0.0
+    return False
+
+
+def _ends(tree: UrdfTree) -> dict[str, tuple[Vec3, ...]]:
+    ends: dict[str, list[Vec3]] = {}
+    for joint in tree.joints:
+        xyz = np.asarray(joint.origin)[:3, 3]
+        if np.linalg.norm(xyz) > 1e-6:
+            ends.setdefault(joint.parent, []).append((float(xyz[0]), float(xyz[1]), float(xyz[2])))
+    return {link: tuple(points) for link, points in ends.items()}
+
+
+def _visuals(
+    robot: Any, reader: _Reader, cleaned: _xml.Cleaned, ends: Mapping[str, tuple[Vec3, ...]]
+) -> dict[str, tuple[Visual, ...]]:
     named = _colours(robot)
     out: dict[str, tuple[Visual, ...]] = {}
     for link in robot.links:
         visuals = []
-        for visual in link.visuals:
-            material, rgba = visual.material, None
-            if material is not None and material.color is not None:
-                c = np.asarray(material.color.rgba, dtype=np.float64)
-                rgba = (float(c[0]), float(c[1]), float(c[2]), float(c[3]))
-            elif material is not None and material.name:
+        for index, visual in enumerate(link.visuals):
+            material = visual.material
+            rgba = _rgba(material)
+            if rgba is None and material is not None and material.name:
                 rgba = named.get(material.name)
             origin = (
                 np.eye(4) if visual.origin is None else np.array(visual.origin, dtype=np.float64)
             )
-            try:
-                geometry = _geometry(visual.geometry, link.name, path.parent, packages)
-            except UrdfError as exc:
-                raise UrdfError(f"{path}: {exc}") from None
-            visuals.append(Visual(origin, geometry, rgba))
+            capsule = cleaned.capsules.get((link.name, index))
+            geometry: Geometry
+            if capsule is not None:
+                geometry = CapsuleGeometry(*capsule)
+            else:
+                try:
+                    geometry = reader.geometry(visual.geometry, link.name)
+                except UrdfError as exc:
+                    reader.warnings.append(reader.locate(f"{exc}; drawn as a stand-in", cleaned))
+                    visuals.append(stand_in(ends.get(link.name, ()), rgba))
+                    continue
+            if not _empty(geometry):
+                visuals.append(Visual(origin, geometry, rgba))
         out[link.name] = tuple(visuals)
     return out
 
 
 def load_urdf(
-    path: str | Path, packages: Mapping[str, str | Path] | None = None, tip: str | None = None
+    path: str | Path,
+    packages: Mapping[str, str | Path] | None = None,
+    tip: str | None = None,
+    args: Mapping[str, str] | None = None,
 ) -> UrdfRobot:
-    """Load the URDF at ``path``: kinematics, joint order and limits, each link's visuals.
+    """Load the URDF or xacro file at ``path``: kinematics, joints, limits, each link's visuals.
 
-    ``packages`` maps ``package://`` names to folders (used as given: resolve
-    relative ones first). ``tip`` is the link ``forward``/``inverse`` work on
-    (default: see ``UrdfChain``). Raises UrdfError, whose message says what is
-    wrong, for any file that cannot be used.
+    ``packages`` maps ROS package names to folders (used as given: resolve
+    relative ones first); packages not given are searched for above the file
+    (see ``_paths``). ``args`` are xacro arguments. ``tip`` is the link
+    ``forward``/``inverse`` work on (default: see ``UrdfChain``). Raises
+    UrdfError, whose message says what is wrong and where, for any file that
+    cannot be used; what can be shown in part is in ``UrdfRobot.warnings``.
     """
     path = Path(path)
     folders = {name: Path(folder) for name, folder in (packages or {}).items()}
-    _parse_xml(path)
-    # yourdfpy logs and then retries malformed files leniently; _parse_xml has
+    reader = _Reader(path, Packages(folders, path.parent), args or {})
+    cleaned = _xml.clean(reader.root(), reader.where)
+    reader.warnings += cleaned.warnings
+    # yourdfpy logs and then retries malformed files leniently; _xml has
     # already rejected those, so its log would only be noise.
     previous = logging.getLogger("yourdfpy").level
     logging.getLogger("yourdfpy").setLevel(logging.CRITICAL)
     try:
-        parsed = yourdfpy.URDF.load(str(path), build_scene_graph=False, load_meshes=False)
+        parsed = yourdfpy.URDF.load(
+            io.BytesIO(etree.tostring(cleaned.root)),
+            build_scene_graph=False,
+            load_meshes=False,
+        )
     except (KeyError, AttributeError, ValueError, TypeError, IndexError) as exc:
         raise UrdfError(f"{path}: cannot read the robot description ({exc!r})") from None
     finally:
@@ -179,7 +248,14 @@ def load_urdf(
     try:
         chain = UrdfChain(tree, tip)
     except ValueError as exc:
-        raise UrdfError(f"{path}: {exc}") from None
+        raise UrdfError(reader.locate(str(exc), cleaned)) from None
+    ends = _ends(tree)
+    visuals = _visuals(robot, reader, cleaned, ends)
     return UrdfRobot(
-        name=str(robot.name), path=path, chain=chain, visuals=_visuals(robot, path, folders)
+        name=str(robot.name),
+        path=path,
+        chain=chain,
+        visuals=visuals,
+        warnings=tuple(reader.warnings),
+        ends=ends,
     )

@@ -6,6 +6,9 @@ Meshes keep their own materials (as RViz shows them); meshes without any, and
 primitives, get the URDF colour, or grey. COLLADA ``<unit meter>`` scaling is
 applied; its ``up_axis`` is not, as in RViz. Faces meeting at more than 35
 degrees get separate normals, so flat STL facets look flat and round parts round.
+A mesh that cannot be read is drawn as the link's stand-in (a ball on the link
+frame, sticks to its children) with a warning; the warning is kept beside the
+cached GLB, so a warm cache reports it too.
 
 The cache key hashes everything the output depends on: the bytes of every mesh
 file and of the material and texture files it names, the visual origins,
@@ -19,6 +22,7 @@ import json
 import os
 import re
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,26 +30,42 @@ import numpy as np
 import trimesh
 from lxml import etree
 
-from .model import BoxGeometry, CylinderGeometry, MeshGeometry, SphereGeometry, UrdfRobot, Visual
+from .model import (
+    BoxGeometry,
+    CapsuleGeometry,
+    CylinderGeometry,
+    MeshGeometry,
+    SphereGeometry,
+    StandInGeometry,
+    UrdfRobot,
+    Visual,
+)
 
 # trimesh is only partly annotated, and mypy --strict would flag every call into it.
 tm: Any = trimesh
 
-FORMAT = 1  # bump when the conversion below changes its output
+FORMAT = 2  # bump when the conversion below changes its output
 SHARP = np.radians(35.0)
 SECTIONS = 32  # segments around cylinders
+STAND_IN_RADIUS = 0.02  # m: the ball of a stand-in; its sticks are 0.6 of it
 _GREY = (0.6, 0.6, 0.62, 1.0)
 _OBJ_REFS = re.compile(rb"^\s*(?:mtllib|map_\w+)\s+(.+?)\s*$", re.M)
 _DAE_REFS = re.compile(rb"<init_from>\s*([^<]+?)\s*</init_from>")
 
 
 def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError as exc:  # converted to a stand-in; the key still names the file's state
+        return f"unreadable: {exc.strerror}"
 
 
 def _dependencies(path: Path) -> list[Path]:
     """Files a mesh names that change its looks: OBJ material libraries and textures, DAE images."""
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return []
     suffix = path.suffix.lower()
     if suffix == ".obj":
         names = _OBJ_REFS.findall(data)
@@ -117,12 +137,27 @@ def _textured(visual: Any) -> bool:
     )
 
 
+def _dielectric(material: Any) -> Any:
+    """``material`` as glTF PBR, not a metal unless it says so.
+
+    OBJ (MTL) and COLLADA materials have no metalness, and glTF's default is
+    1: a full metal, which looks black without an environment to reflect.
+    """
+    pbr = material.to_pbr() if hasattr(material, "to_pbr") else material
+    if getattr(pbr, "metallicFactor", 0.0) is None:
+        pbr.metallicFactor = 0.0
+    return pbr
+
+
 def _finish(mesh: Any, rgba: tuple[float, float, float, float] | None) -> Any:
     """``mesh`` with crisp edges and a material, unless it brings textures or per-vertex colours."""
     visual = mesh.visual
-    if _textured(visual) or visual.kind in ("vertex", "face"):
+    if _textured(visual):
+        visual.material = _dielectric(visual.material)
         return mesh
-    material = visual.material if visual.kind == "texture" else _material(rgba)
+    if visual.kind in ("vertex", "face"):
+        return mesh
+    material = _dielectric(visual.material) if visual.kind == "texture" else _material(rgba)
     mesh.merge_vertices()
     shaded = tm.graph.smooth_shade(mesh, angle=SHARP, facet_minarea=None)
     shaded.metadata.clear()
@@ -136,19 +171,45 @@ def _collada_unit(path: Path) -> float:
     return 1.0 if unit is None else float(unit.get("meter", "1"))
 
 
+def _mesh_file(visual: Visual, geometry: MeshGeometry) -> list[Any]:
+    scene = tm.load(geometry.path, force="scene")
+    unit = _collada_unit(geometry.path) if geometry.path.suffix.lower() == ".dae" else 1.0
+    scale = np.diag([*(unit * s for s in geometry.scale), 1.0])
+    parts = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        part = scene.geometry[name].copy()
+        if not hasattr(part, "faces"):  # points or lines in the file: nothing to shade
+            continue
+        part.apply_transform(visual.origin @ scale @ transform)
+        parts.append(part)
+    if not parts:
+        raise ValueError("it holds no triangles")
+    return parts
+
+
+def _stand_in(visual: Visual, geometry: StandInGeometry) -> list[Any]:
+    parts = [tm.creation.icosphere(subdivisions=2, radius=STAND_IN_RADIUS)]
+    for end in geometry.ends:
+        segment = [[0.0, 0.0, 0.0], list(end)]
+        parts.append(
+            tm.creation.cylinder(STAND_IN_RADIUS * 0.6, segment=segment, sections=SECTIONS // 2)
+        )
+    return [part.apply_transform(visual.origin) for part in parts]
+
+
 def _meshes(visual: Visual) -> list[Any]:
     """The visual's geometry in the link frame, finished."""
     geometry = visual.geometry
     if isinstance(geometry, MeshGeometry):
-        scene = tm.load(geometry.path, force="scene")
-        unit = _collada_unit(geometry.path) if geometry.path.suffix.lower() == ".dae" else 1.0
-        scale = np.diag([*(unit * s for s in geometry.scale), 1.0])
-        parts = []
-        for node in scene.graph.nodes_geometry:
-            transform, name = scene.graph[node]
-            part = scene.geometry[name].copy()
-            part.apply_transform(visual.origin @ scale @ transform)
-            parts.append(part)
+        parts = _mesh_file(visual, geometry)
+    elif isinstance(geometry, StandInGeometry):
+        parts = _stand_in(visual, geometry)
+    elif isinstance(geometry, CapsuleGeometry):
+        capsule = tm.creation.capsule(
+            height=geometry.length, radius=geometry.radius, count=[SECTIONS, SECTIONS // 2]
+        )
+        parts = [capsule.apply_transform(visual.origin)]
     elif isinstance(geometry, BoxGeometry):
         parts = [tm.creation.box(extents=geometry.size, transform=visual.origin)]
     elif isinstance(geometry, CylinderGeometry):
@@ -164,35 +225,75 @@ def _meshes(visual: Visual) -> list[Any]:
     return [_finish(part, visual.rgba) for part in parts]
 
 
-def convert_link(link: str, visuals: tuple[Visual, ...]) -> bytes:
-    """One binary glTF of ``link``'s visuals, its scene origin the link frame (m, Z up)."""
+def convert_link(
+    link: str, visuals: tuple[Visual, ...], stand_in: Visual | None = None
+) -> tuple[bytes, list[str]]:
+    """One binary glTF of ``link``'s visuals, its scene origin the link frame (m, Z up).
+
+    A mesh file that cannot be read is replaced by ``stand_in`` (default: a
+    ball on the link frame), with a warning; returns the GLB and the warnings.
+    """
     scene = tm.Scene()
+    warnings = []
     k = 0
     for visual in visuals:
-        for mesh in _meshes(visual):
+        try:
+            meshes = _meshes(visual)
+        except Exception as exc:  # trimesh and pycollada raise many kinds on a broken file
+            if not isinstance(visual.geometry, MeshGeometry):
+                raise
+            geometry = visual.geometry
+            warnings.append(
+                f"link {link!r}: mesh {geometry.uri or str(geometry.path)!r} ({geometry.path}) "
+                f"cannot be read ({exc}); drawn as a stand-in"
+            )
+            fallback = stand_in or Visual(np.eye(4), StandInGeometry(), None)
+            meshes = _meshes(Visual(fallback.origin, fallback.geometry, visual.rgba))
+        for mesh in meshes:
             scene.add_geometry(mesh, node_name=f"{link}_{k}", geom_name=f"{link}_{k}")
             k += 1
-    return bytes(tm.exchange.gltf.export_glb(scene, include_normals=True))
+    return bytes(tm.exchange.gltf.export_glb(scene, include_normals=True)), warnings
 
 
-def link_meshes(robot: UrdfRobot, cache_dir: str | Path) -> dict[str, Path]:
+@dataclass(frozen=True)
+class LinkMeshes:
+    """A robot's GLB file per link that has visuals, and what could not be converted."""
+
+    files: dict[str, Path]
+    warnings: tuple[str, ...] = ()
+
+
+def _write(path: Path, data: bytes) -> None:
+    """Write through a temporary name and rename, so a reader never sees half a file."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def link_meshes(robot: UrdfRobot, cache_dir: str | Path) -> LinkMeshes:
     """GLB file per link that has visuals, converted only if ``cache_dir`` lacks it.
 
-    Files are named by ``mesh_key``; one is written to a temporary name and
-    renamed, so a reader never sees half a file.
+    Files are named by ``mesh_key``; warnings of a conversion are kept in a
+    ``.warnings.json`` beside its GLB.
     """
     cache = Path(cache_dir)
     cache.mkdir(parents=True, exist_ok=True)
-    out: dict[str, Path] = {}
+    files: dict[str, Path] = {}
+    warnings: list[str] = []
     for link, visuals in robot.visuals.items():
         if not visuals:
             continue
         path = cache / f"{mesh_key(link, visuals)}.glb"
-        if not path.is_file():
-            data = convert_link(link, visuals)
-            fd, tmp = tempfile.mkstemp(dir=cache, suffix=".tmp")
-            with os.fdopen(fd, "wb") as f:
-                f.write(data)
-            os.replace(tmp, path)
-        out[link] = path
-    return out
+        notes = path.with_suffix(".warnings.json")
+        if path.is_file():
+            if notes.is_file():
+                warnings += json.loads(notes.read_text(encoding="utf-8"))
+        else:
+            data, found = convert_link(link, visuals, robot.stand_in(link))
+            if found:
+                _write(notes, json.dumps(found).encode())
+                warnings += found
+            _write(path, data)
+        files[link] = path
+    return LinkMeshes(files, tuple(warnings))

@@ -7,7 +7,7 @@ Frames are link frames (m, rad), Z up as everywhere in linkview; a visual's
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +53,33 @@ class SphereGeometry:
     radius: float
 
 
-Geometry = MeshGeometry | BoxGeometry | CylinderGeometry | SphereGeometry
+@dataclass(frozen=True)
+class CapsuleGeometry:
+    """A cylinder of ``length`` along the visual origin's z with half-spheres on its ends (m)."""
+
+    radius: float
+    length: float
+
+
+@dataclass(frozen=True)
+class StandInGeometry:
+    """What is drawn for a mesh that cannot be: a ball on the link frame, sticks to ``ends``.
+
+    ``ends`` are the link's child joint origins (m, link frame), so the stand-in
+    spans the link as the missing mesh would have.
+    """
+
+    ends: tuple[tuple[float, float, float], ...] = ()
+
+
+Geometry = (
+    MeshGeometry
+    | BoxGeometry
+    | CylinderGeometry
+    | SphereGeometry
+    | CapsuleGeometry
+    | StandInGeometry
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +94,14 @@ class Visual:
     rgba: tuple[float, float, float, float] | None = None
 
 
+def stand_in(
+    ends: tuple[tuple[float, float, float], ...],
+    rgba: tuple[float, float, float, float] | None = None,
+) -> Visual:
+    """A stand-in visual on a link frame, with sticks to ``ends`` (m, link frame)."""
+    return Visual(np.eye(4), StandInGeometry(ends), rgba)
+
+
 @dataclass(frozen=True, eq=False)
 class UrdfRobot:
     """A loaded URDF: its kinematics and every link's visuals (empty for links without any)."""
@@ -76,6 +110,14 @@ class UrdfRobot:
     path: Path
     chain: UrdfChain
     visuals: Mapping[str, tuple[Visual, ...]]
+    warnings: tuple[str, ...] = ()
+    """What was read but cannot be shown as written (missing meshes, floating joints, ...)."""
+    ends: Mapping[str, tuple[tuple[float, float, float], ...]] = field(default_factory=dict)
+    """Per link, its child joint origins (m, link frame): where a stand-in's sticks go."""
+
+    def stand_in(self, link: str, rgba: tuple[float, float, float, float] | None = None) -> Visual:
+        """The visual drawn in place of a mesh of ``link`` that cannot be read."""
+        return stand_in(self.ends.get(link, ()), rgba)
 
     @property
     def joint_names(self) -> tuple[str, ...]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
+import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -16,12 +17,16 @@ from fastapi.staticfiles import StaticFiles
 from ..cell import Cell
 from ..cluster import Replica, broker_settings
 from ..config import Settings
+from ..foxglove import FoxgloveEndpoint
 from ..paths import STATIC_DIR
+from ..recording import Recorder
 from ..runtime import Runtime
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import metrics, routes, transformation, ws
+from . import history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
+
+log = logging.getLogger(__name__)
 
 
 def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
@@ -46,9 +51,14 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
         if path is not None:
             load = functools.partial(configured_cell, settings, path)
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
+        look_back = await _start_look_back(settings, runtime)
+        app.state.look_back = look_back
         try:
             yield
         finally:
+            for task in look_back:
+                task.cancel()
+            await asyncio.gather(*look_back, return_exceptions=True)
             stop.set()
             if watcher is not None:
                 watcher.cancel()
@@ -66,8 +76,32 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app.include_router(ws.router)
     app.include_router(transformation.router)
     app.include_router(metrics.router)
+    app.include_router(history.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
+
+
+async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio.Task[None]]:
+    """The continuous recording and the Foxglove endpoint, where the settings ask for them."""
+    tasks = []
+    if settings.record is not None:
+        recorder = Recorder(runtime.history, lambda: runtime.cell, settings.record)
+        tasks.append(asyncio.create_task(recorder.run(), name="recorder"))
+    if settings.foxglove_port is not None:
+        token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
+        endpoint = FoxgloveEndpoint(
+            runtime.history, lambda: runtime.cell, settings.host, settings.foxglove_port, token
+        )
+        try:
+            await endpoint.start()
+        except Exception as exc:  # a port in use must not keep the viewers from the cell
+            log.error(
+                "foxglove: cannot serve on %s:%d: %s", settings.host, settings.foxglove_port, exc
+            )
+            await endpoint.stop()
+        else:
+            tasks.append(asyncio.create_task(endpoint.run(), name="foxglove"))
+    return tasks
 
 
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:

@@ -73,6 +73,16 @@ class RuntimeCollector(Collector):
             logins.add_metric([name], source.client.tokens.logins)
             _add(kinematics, [name], acquisition.kinematics_time)
         yield from (published, requests, errors, logins, age, live, kinematics)
+        held = GaugeMetricFamily(
+            "linkview_history_samples", "Samples the timeline holds", labels=["source"]
+        )
+        size = GaugeMetricFamily(
+            "linkview_history_bytes", "Memory of the timeline's samples", labels=["source"]
+        )
+        for name, kept in runtime.history.sources.items():
+            held.add_metric([name], len(kept.ring))
+            size.add_metric([name], kept.ring.nbytes)
+        yield from (held, size)
         yield CounterMetricFamily(
             "linkview_frames_dropped", "Messages skipped for slow viewers", value=hub.dropped
         )

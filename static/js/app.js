@@ -8,6 +8,7 @@ import { Robots } from './robots.js';
 import { Stage } from './scene.js';
 import { SimPanel } from './sim.js';
 import { Socket } from './socket.js';
+import { Timeline } from './timeline.js';
 
 const PROTOCOL = 2; // server/protocol.py PROTOCOLS['linkview.2']
 const HUD_INTERVAL_MS = 100;
@@ -51,6 +52,7 @@ class App {
 		this._framed = false;
 		this._helloAt = null;
 		this._animate = ( time ) => this.animate( time );
+		this.timeline = new Timeline( root, this ); // look back: the last minutes, from the server's history
 		this._wire();
 
 	}
@@ -136,7 +138,7 @@ class App {
 		switch ( message.type ) {
 
 			case 'hello': this._onHello( message ); break;
-			case 'frame': this.clock.observe( message.t_sent, arrival ); this.robots.queue( message, arrival ); break;
+			case 'frame': this.clock.observe( message.t_sent, arrival ); this.timeline.noteLive( message.t_source ); this.robots.queue( message, arrival ); break;
 			case 'status': this.hud.setStatus( message ); break;
 			case 'cell': this.hud.setCell( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
@@ -149,6 +151,7 @@ class App {
 	receiveFrames( frames, arrival ) {
 
 		this.clock.observe( frames.t_sent, arrival );
+		this.timeline.noteLive( frames.t_source );
 		for ( const entry of frames.robots ) {
 
 			const view = this.robots.byIndex[ entry.robot_index ];
@@ -176,6 +179,7 @@ class App {
 		const rebuilt = this.robots.setHello( hello );
 		this.hud.setHello( hello, this.views );
 		if ( ! rebuilt ) return;
+		this.timeline.goLive(); // the history shown described the robots gone by
 		this.labels.rebuild( this.views );
 		this._dressed = false;
 		this._framed = false;
@@ -194,7 +198,8 @@ class App {
 		const select = this.root.getElementById( 'selected-robot' );
 		if ( name !== null ) select.value = name;
 		const view = this.views.get( name ) ?? null;
-		this.plots.show( view ? this.robots.histories.get( name ) : null, view ? `#${view.color.getHexString()}` : '' );
+		const history = view ? this.timeline.plotHistory( name ) ?? this.robots.histories.get( name ) : null;
+		this.plots.show( history, view ? `#${view.color.getHexString()}` : '' );
 		this.sim.setRobot( view );
 
 	}
@@ -232,7 +237,9 @@ class App {
 
 		this.quality.tick( time );
 		const now = nowMs();
-		for ( const frame of this.robots.applyPending( now ) ) {
+		this.timeline.tick( time );
+		// While the timeline shows the past, live frames wait (newest only) for Live.
+		for ( const frame of this.timeline.live ? this.robots.applyPending( now ) : [] ) {
 
 			const view = this.views.get( frame.robot );
 			const age = this.clock.ageMs( frame.t_source, now );
@@ -257,7 +264,7 @@ class App {
 		for ( const view of views.values() ) {
 
 			view.trail.seconds = this.trailSeconds;
-			if ( view.trailOn ) view.trail.update( now );
+			if ( view.trailOn ) view.trail.update( this.timeline.trailNow( now ) );
 			if ( this._framed ) view.updateAnchor();
 
 		}
@@ -298,6 +305,7 @@ class App {
 	dispose() {
 
 		if ( this.socket ) this.socket.dispose();
+		this.timeline.dispose();
 		window.removeEventListener( 'keydown', this._onKey );
 		this.stage.setAnimationLoop( null );
 		this.sim.dispose();

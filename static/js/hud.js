@@ -20,10 +20,23 @@ function limitShare( value, joint ) {
 
 }
 
+/** What a robot's description holds that cannot be shown as written: folded, one line each. */
+function warningList( warnings ) {
+
+	const details = element( 'details', 'robot-warnings' );
+	details.append( element( 'summary', null, warnings.length === 1 ? '1 warning' : `${warnings.length} warnings` ) );
+	const list = element( 'ul' );
+	for ( const text of warnings ) list.append( element( 'li', null, text ) );
+	details.append( list );
+	return details;
+
+}
+
 /**
  * The left panel: the server and controller pills, one card per robot (show,
  * trail, focus; TCP position in mm and roll/pitch/yaw in degrees; joint values
- * on bars between their limits; frames/s and latency), the data sources from
+ * on bars between their limits; frames/s and latency; the description's
+ * warnings), the data sources from
  * `status`, and the banner.
  */
 class Hud {
@@ -125,6 +138,7 @@ class Hud {
 			const error = element( 'div', 'robot-error' );
 			error.hidden = true;
 			card.append( title, controls, tcp, joints, state, error );
+			if ( robot.warnings?.length ) card.append( warningList( robot.warnings ) );
 			this.robotsEl.append( card );
 			const before = old.get( robot.name );
 			this._cards.set( robot.name, {

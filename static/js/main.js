@@ -44,7 +44,7 @@ window.linkview = Object.freeze( {
 	robotState( name ) {
 
 		const view = app.robots.views.get( name );
-		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs } : null;
+		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns } : null;
 
 	},
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
@@ -77,6 +77,13 @@ window.linkview = Object.freeze( {
 
 		const { calls, triangles, lines } = app.stage.renderer.info.render;
 		return { calls, triangles, lines };
+
+	},
+	/** The timeline: mode (live, paused, playing), the moment shown and the live edge (unix s). */
+	get timeline() {
+
+		const { mode, moment, liveT, speed, fetches } = app.timeline;
+		return { mode, moment, liveT, speed, fetches, span: app.timeline.span() };
 
 	},
 	get bannerChanges() {

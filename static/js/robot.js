@@ -83,8 +83,8 @@ function flatPoses( links ) {
 /**
  * One robot of the cell, built from its `robot` entry of `hello`: a Group at the
  * robot's base pose with one child Object3D per link (in hello order, carrying
- * that link's mesh, whose origin is the link frame, or a ball-and-stick stand-in
- * where the link has none), a TCP marker and the TCP trail. Frames set the link
+ * that link's mesh, whose origin is the link frame, or, where no link of the
+ * robot has one, a ball-and-stick stand-in), a TCP marker and the TCP trail. Frames set the link
  * and TCP poses, which are given in the robot base frame.
  */
 class RobotView {
@@ -156,11 +156,14 @@ class RobotView {
 	async load( loadMesh ) {
 
 		const meshes = await Promise.all( this.info.links.map( ( link ) => link.mesh ? loadMesh( link.mesh ) : null ) );
+		// A robot that brings meshes draws nothing for its other links (a URDF link
+		// without a visual); one without any gets stand-ins, to be seen at all.
+		const bare = meshes.every( ( mesh ) => mesh === null );
 		meshes.forEach( ( mesh, i ) => {
 
 			if ( mesh === null ) {
 
-				this._addStandIn( i );
+				if ( bare ) this._addStandIn( i );
 				return;
 
 			}
@@ -348,6 +351,13 @@ class RobotView {
 	get posed() {
 
 		return this.goodFrame !== null || this.zeroPosed;
+
+	}
+
+	/** How many links are drawn as ball-and-stick stand-ins (none where the robot brings meshes). */
+	get standIns() {
+
+		return this._sticks.length;
 
 	}
 

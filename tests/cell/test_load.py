@@ -90,7 +90,7 @@ def test_a_malformed_urdf(tmp_path: Path) -> None:
     assert message.startswith("robot[0].kinematics.file: ") and "bad.urdf" in message
 
 
-def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
+def test_a_missing_mesh_of_a_urdf_is_a_warning_from_check(tmp_path: Path) -> None:
     urdf = (URDF_DIR / "urdf" / "arm6.urdf").read_text()
     (tmp_path / "arm.urdf").write_text(urdf.replace("meshes/base.stl", "meshes/gone.stl"))
     nodes = ", ".join(f'{{ node = "n{i}" }}' for i in range(6))
@@ -103,8 +103,46 @@ def test_a_missing_mesh_of_a_urdf(tmp_path: Path) -> None:
     kinematics.packages = {{ arm6_description = "{URDF_DIR}" }}
     joints = [{nodes}]
     """
-    (message,) = problems(write(tmp_path, SOURCE + textwrap.dedent(robot)))
-    assert message.startswith("robot[0].kinematics.file: ") and "gone.stl" in message
+    path = write(tmp_path, SOURCE + textwrap.dedent(robot))
+    (arm,) = load_cell(path, env={}, cache_dir=tmp_path / "cache").robots
+    (warning,) = arm.warnings
+    assert "link 'base_link'" in warning and "gone.stl not found" in warning, warning
+    assert all(mesh is not None for mesh in arm.meshes[:-1])  # the base: a stand-in
+    assert arm.info().warnings == [warning]
+    checked = run_server("check", str(path), env={"LINKVIEW_CACHE_DIR": str(tmp_path / "c")})
+    assert checked.returncode == 0, checked.stderr
+    assert checked.stdout.splitlines() == [
+        f"{path}: arm: urdf, 6 joints, source line1, 7 meshes",
+        f"{path}: arm: warning: {warning}",
+    ]
+
+
+def test_a_xacro_file_with_args_loads_and_its_errors_name_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf.xacro").write_text(
+        '<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <xacro:arg name="lift" default="0.5"/>\n'
+        '  <link name="base"/><link name="top"/>\n'
+        '  <joint name="slide" type="prismatic"><parent link="base"/><child link="top"/>\n'
+        '    <axis xyz="0 0 1"/><limit lower="0" upper="$(arg lift)"/></joint>\n'
+        "</robot>\n"
+    )
+    robot = """
+    [[robot]]
+    name = "lifter"
+    source = "line1"
+    kinematics = { type = "urdf", file = "arm.urdf.xacro", args = { lift = "0.25" } }
+    joints = [ { node = "z", unit = "mm" } ]
+    """
+    path = write(tmp_path, SOURCE + textwrap.dedent(robot))
+    (lifter,) = load_cell(path, env={}, cache_dir=tmp_path / "cache").robots
+    assert lifter.joints[0].limits == (0.0, 0.25)
+    broken = (tmp_path / "arm.urdf.xacro").read_text().replace("</joint>", "</jiont>")
+    (tmp_path / "arm.urdf.xacro").write_text(broken)
+    (message,) = problems(path)
+    assert message.startswith(
+        f"robot[0].kinematics.file: {tmp_path / 'arm.urdf.xacro'}: malformed XML: "
+        "mismatched tag: line 5"
+    ), message
 
 
 def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 from pydantic import ValidationError
 
@@ -40,3 +42,9 @@ def test_a_password_in_the_broker_url_is_refused_without_echoing_it() -> None:
     result = run_server("--broker", "redis://:s3cret@127.0.0.1:6379/0")
     assert result.returncode == 2 and "LINKVIEW_BROKER_PASSWORD" in result.stderr
     assert "s3cret" not in result.stderr
+
+
+def test_the_look_back_is_refused_with_a_broker(tmp_path: Path) -> None:
+    with pytest.raises(ValidationError, match="--record, --foxglove run in one process"):
+        Settings(broker="redis://redis:6379/0", record=tmp_path, foxglove_port=8765)
+    assert Settings(record=tmp_path).record == tmp_path  # one process: as before

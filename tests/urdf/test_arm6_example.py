@@ -41,7 +41,7 @@ def test_the_example_loads_with_its_package() -> None:
 
 def test_its_meshes_are_small_and_in_their_link_frames(tmp_path: Path) -> None:
     robot = load_urdf(URDF, {"arm6_description": DESCRIPTION})
-    files = link_meshes(robot, tmp_path)
+    files = link_meshes(robot, tmp_path).files
     assert set(files) == set(robot.link_names) - {"tool0"}
     assert all(path.stat().st_size < 60_000 for path in files.values())
     upper = trimesh.load(files["upper_arm_link"], force="scene").bounds

@@ -13,6 +13,7 @@ from server.urdf import (
     CylinderGeometry,
     MeshGeometry,
     SphereGeometry,
+    StandInGeometry,
     UrdfError,
     load_urdf,
 )
@@ -119,50 +120,69 @@ def test_a_good_file_from_the_template_loads(tmp_path: Path) -> None:
     ("fields", "message"),
     [
         (
-            {"shoulder_type": "floating"},
-            "joint 'shoulder' has type 'floating'; supported types are",
+            {"shoulder_type": "ball"},
+            r"line 6: joint 'shoulder' has type 'ball'; supported types are revolute, "
+            "continuous, prismatic, fixed, floating, planar",
         ),
-        ({"shoulder_type": "planar"}, "joint 'shoulder' has type 'planar'"),
-        ({"limit": ""}, "joint 'shoulder' .revolute. needs limits"),
-        ({"mimic": '<mimic joint="elbow"/>'}, "joint 'wrist' mimics 'elbow', which is not a joint"),
-        ({"origin": "0 zero 0.3"}, "cannot read the robot description"),
+        ({"limit": ""}, r"line 6: joint 'shoulder' .revolute. needs limits"),
+        (
+            {"mimic": '<mimic joint="elbow"/>'},
+            "line 11: joint 'wrist' mimics 'elbow', which is not a joint",
+        ),
+        ({"mimic": "<mimic/>"}, r"line 15: joint 'wrist': <mimic> without a joint"),
+        (
+            {"origin": "0 zero 0.3"},
+            r"line 13: joint 'wrist': <origin xyz> must be 3 number\(s\), got '0 zero 0.3'",
+        ),
+        (
+            {"limit": '<limit lower="-1" upper="one"/>'},
+            r"line 9: joint 'shoulder': <limit upper> must be 1 number\(s\), got 'one'",
+        ),
     ],
 )
-def test_joint_errors_name_the_joint(tmp_path: Path, fields: dict[str, str], message: str) -> None:
+def test_joint_errors_name_the_joint_and_its_line(
+    tmp_path: Path, fields: dict[str, str], message: str
+) -> None:
     path = write(tmp_path, **fields)
     with pytest.raises(UrdfError, match=message) as caught:
         load_urdf(path)
-    assert str(caught.value).startswith(str(path))
+    assert str(caught.value).startswith(f"{path}, line ")
 
 
-def test_mesh_errors_name_the_link_and_the_path(tmp_path: Path) -> None:
-    unknown = write(tmp_path, visual('<mesh filename="package://nowhere/meshes/a.stl"/>'))
-    with pytest.raises(
-        UrdfError,
-        match=r"link 'base': mesh 'package://nowhere/meshes/a.stl' is "
-        r"in package 'nowhere', which is not among the packages given "
-        r"\(given: mesh_description\)",
-    ):
-        load_urdf(unknown, PACKAGES)
-    missing = write(
-        tmp_path, visual('<mesh filename="package://mesh_description/meshes/gone.stl"/>')
-    )
-    gone = MESH_DESCRIPTION / "meshes" / "gone.stl"
-    with pytest.raises(UrdfError, match=f"link 'base': mesh file {gone} not found"):
-        load_urdf(missing, PACKAGES)
-    relative = write(tmp_path, visual('<mesh filename="meshes/b.stl"/>'))
-    with pytest.raises(
-        UrdfError, match=f"mesh file {tmp_path / 'urdf' / 'meshes' / 'b.stl'} not found"
-    ):
-        load_urdf(relative)
-    ply = write(tmp_path, visual('<mesh filename="meshes/b.ply"/>'))
-    with pytest.raises(
-        UrdfError, match="link 'base': mesh 'meshes/b.ply' has an unsupported format"
-    ):
-        load_urdf(ply)
-    web = write(tmp_path, visual('<mesh filename="https://example.com/b.stl"/>'))
-    with pytest.raises(UrdfError, match="only package://, file:// and file paths are supported"):
-        load_urdf(web)
+@pytest.mark.parametrize("kind", ["floating", "planar"])
+def test_floating_and_planar_joints_are_fixed_at_their_origin_with_a_warning(
+    tmp_path: Path, kind: str
+) -> None:
+    robot = load_urdf(write(tmp_path, shoulder_type=kind, origin="0.1 0.2 0.3"))
+    (warning,) = robot.warnings
+    assert warning.startswith(f"{tmp_path / 'urdf' / 'robot.urdf'}, line 6: ")
+    assert f"joint 'shoulder' is {kind}: it is drawn fixed at its origin" in warning
+    assert robot.joint_names == ("wrist",)
+    poses, ok = robot.chain.link_poses(np.array([0.0]))
+    assert ok
+    np.testing.assert_allclose(poses[robot.link_names.index("hand")][:3, 3], [0.1, 0.2, 0.3])
+
+
+def test_missing_and_unusable_meshes_are_warnings_and_stand_ins(tmp_path: Path) -> None:
+    cases = {
+        "package://nowhere/meshes/a.stl": "mesh 'package://nowhere/meshes/a.stl': package "
+        "'nowhere' not found: it is not among the cell's packages (given: mesh_description)",
+        "package://mesh_description/meshes/gone.stl": "mesh file "
+        f"{MESH_DESCRIPTION / 'meshes' / 'gone.stl'} not found",
+        "meshes/b.stl": f"mesh file {tmp_path / 'urdf' / 'meshes' / 'b.stl'} not found",
+        "meshes/b.wrl": "mesh 'meshes/b.wrl' has an unsupported format",
+        "https://example.com/b.stl": "only package://, file:// and file paths are supported",
+    }
+    for uri, message in cases.items():
+        path = write(tmp_path, visual(f'<mesh filename="{uri}"/>'))
+        robot = load_urdf(path, PACKAGES)
+        (warning,) = robot.warnings
+        assert warning.startswith(f"{path}, line 3: link 'base': "), warning
+        assert message in warning and warning.endswith("; drawn as a stand-in"), warning
+        (stand_in,) = robot.visuals["base"]
+        # The stand-in reaches to where the link's child joint is (base -> arm is at 0).
+        assert stand_in.geometry == StandInGeometry(())
+    assert load_urdf(write(tmp_path, visual("<box size='0.1 0.1 0.1'/>"))).warnings == ()
 
 
 def test_file_and_xml_errors(tmp_path: Path) -> None:
@@ -176,13 +196,10 @@ def test_file_and_xml_errors(tmp_path: Path) -> None:
     other.write_text("<sdf/>")
     with pytest.raises(UrdfError, match="the root element is <sdf>, not <robot>"):
         load_urdf(other)
-    xacro = tmp_path / "arm.urdf.xacro"
-    xacro.write_text(
-        '<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro">'
-        '<xacro:property name="l" value="1"/><link name="a"/></robot>'
-    )
-    with pytest.raises(UrdfError, match="is a xacro file: expand it"):
-        load_urdf(xacro)
+    undeclared = tmp_path / "undeclared.urdf"
+    undeclared.write_text('<robot name="a">\n<link name="a"/>\n<lnk name="b"></link>\n</robot>')
+    with pytest.raises(UrdfError, match=r"undeclared.urdf: malformed XML, line 3: .*lnk"):
+        load_urdf(undeclared)
     nameless = tmp_path / "nameless.urdf"
     nameless.write_text('<robot name="a">\n<link name="a"/>\n<link/>\n</robot>')
     with pytest.raises(UrdfError, match=r"line 3: <link> without a name"):
@@ -196,7 +213,7 @@ def test_file_and_xml_errors(tmp_path: Path) -> None:
         load_urdf(orphan)
     for geometry, found in (
         ("", "nothing"),
-        ("<box/><sphere/>", "box, sphere"),
+        ("<box size='1 1 1'/><sphere radius='1'/>", "box, sphere"),
         ("<cone/>", "cone"),
     ):
         shapeless = write(tmp_path, visual(geometry))
@@ -204,9 +221,17 @@ def test_file_and_xml_errors(tmp_path: Path) -> None:
             UrdfError, match=rf"line 3: a <visual> needs a <geometry> .*found: {found}"
         ):
             load_urdf(shapeless)
+    with pytest.raises(UrdfError, match=r"line 3: link 'base': <sphere> without radius"):
+        load_urdf(write(tmp_path, visual("<sphere/>")))
     with pytest.raises(UrdfError, match=r"line 3: <mesh> without a filename"):
         load_urdf(write(tmp_path, visual("<mesh/>")))
     two_roots = tmp_path / "two_roots.urdf"
     two_roots.write_text('<robot name="a"><link name="a"/><link name="b"/></robot>')
     with pytest.raises(UrdfError, match="single root link; roots found: a, b"):
         load_urdf(two_roots)
+    stray = write(tmp_path).read_text().replace('<child link="hand"/>', '<child link="palm"/>')
+    (tmp_path / "stray.urdf").write_text(stray)
+    with pytest.raises(
+        UrdfError, match=r"stray.urdf, line 11: joint 'wrist': its child link 'palm' is not"
+    ):
+        load_urdf(tmp_path / "stray.urdf")

@@ -35,7 +35,7 @@ def colour(scene: trimesh.Scene) -> np.ndarray:
 
 def test_each_link_with_visuals_gets_a_glb_in_its_link_frame(tmp_path: Path) -> None:
     robot = load_urdf(MESH_DESCRIPTION / "urdf" / "mesh_arm.urdf", PACKAGES)
-    files = link_meshes(robot, tmp_path / "cache")
+    files = link_meshes(robot, tmp_path / "cache").files
     assert set(files) == {"base", "link1", "link2", "tool"}  # "slider" has no visual
     assert all(
         path.parent == tmp_path / "cache" and path.suffix == ".glb" for path in files.values()
@@ -61,7 +61,7 @@ def test_each_link_with_visuals_gets_a_glb_in_its_link_frame(tmp_path: Path) -> 
 
 def test_colours_come_from_the_mesh_or_else_the_urdf(tmp_path: Path) -> None:
     robot = load_urdf(MESH_DESCRIPTION / "urdf" / "mesh_arm.urdf", PACKAGES)
-    files = link_meshes(robot, tmp_path)
+    files = link_meshes(robot, tmp_path).files
     # STL has no material: the URDF's blue (0.1, 0.3, 0.8), as a linear factor.
     linear = [((c + 0.055) / 1.055) ** 2.4 * 255 for c in (0.1, 0.3, 0.8)]
     np.testing.assert_allclose(colour(glb(files["base"]))[:3], linear, atol=1.0)
@@ -76,7 +76,7 @@ def test_colours_come_from_the_mesh_or_else_the_urdf(tmp_path: Path) -> None:
 
 def test_primitives(tmp_path: Path) -> None:
     robot = load_urdf(FIXTURES / "serial6.urdf")
-    files = link_meshes(robot, tmp_path)
+    files = link_meshes(robot, tmp_path).files
     assert set(files) == {"base", "l1", "l2"}
     np.testing.assert_allclose(
         glb(files["base"]).bounds, [[-0.1, -0.1, -0.025], [0.1, 0.1, 0.025]], atol=TOL
@@ -93,16 +93,18 @@ def test_a_warm_cache_converts_nothing(tmp_path: Path, monkeypatch: pytest.Monke
     calls: list[str] = []
     convert = meshes_module.convert_link
 
-    def counting(link: str, visuals: tuple) -> bytes:  # type: ignore[type-arg]
+    def counting(link: str, visuals: tuple, stand_in: object) -> tuple[bytes, list[str]]:  # type: ignore[type-arg]
         calls.append(link)
-        return convert(link, visuals)
+        return convert(link, visuals, stand_in)  # type: ignore[arg-type]
 
     monkeypatch.setattr(meshes_module, "convert_link", counting)
-    first = link_meshes(robot, tmp_path)
+    first = link_meshes(robot, tmp_path).files
     assert sorted(calls) == ["base", "link1", "link2", "tool"]
     stamps = {path: path.stat().st_mtime_ns for path in first.values()}
     calls.clear()
-    again = link_meshes(load_urdf(MESH_DESCRIPTION / "urdf" / "mesh_arm.urdf", PACKAGES), tmp_path)
+    again = link_meshes(
+        load_urdf(MESH_DESCRIPTION / "urdf" / "mesh_arm.urdf", PACKAGES), tmp_path
+    ).files
     assert again == first and calls == []
     assert {path: path.stat().st_mtime_ns for path in again.values()} == stamps
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in first.values())
@@ -117,15 +119,15 @@ def copy_description(tmp_path: Path) -> Path:
 def test_a_changed_source_changes_the_key_and_the_glb(tmp_path: Path) -> None:
     folder = copy_description(tmp_path)
     urdf = folder / "urdf" / "mesh_arm.urdf"
-    before = link_meshes(load_urdf(urdf, {"mesh_description": folder}), tmp_path / "cache")
+    before = link_meshes(load_urdf(urdf, {"mesh_description": folder}), tmp_path / "cache").files
     # Same content elsewhere: same keys.
     original = link_meshes(
         load_urdf(MESH_DESCRIPTION / "urdf" / "mesh_arm.urdf", PACKAGES), tmp_path / "cache"
-    )
+    ).files
     assert original == before
     bigger = trimesh.creation.box((0.4, 0.2, 0.1))
     (folder / "meshes" / "base.stl").write_bytes(trimesh.exchange.stl.export_stl(bigger))
-    after = link_meshes(load_urdf(urdf, {"mesh_description": folder}), tmp_path / "cache")
+    after = link_meshes(load_urdf(urdf, {"mesh_description": folder}), tmp_path / "cache").files
     assert after["base"] != before["base"]
     assert {k: v for k, v in after.items() if k != "base"} == {
         k: v for k, v in before.items() if k != "base"
@@ -177,12 +179,12 @@ def test_obj_materials_are_part_of_the_key(tmp_path: Path) -> None:
         '<mesh filename="cyl.obj"/></geometry></visual></link></robot>'
     )
     robot = load_urdf(urdf)
-    first = link_meshes(robot, tmp_path / "cache")["a"]
+    first = link_meshes(robot, tmp_path / "cache").files["a"]
     red_channel, green, _, _ = colour(glb(first))
     assert red_channel > 150 and green < 40
     mtl = (tmp_path / "cyl.mtl").read_text().replace("Kd 0.78431373 0.11764706", "Kd 0.1 0.9")
     (tmp_path / "cyl.mtl").write_text(mtl)
-    second = link_meshes(load_urdf(urdf), tmp_path / "cache")["a"]
+    second = link_meshes(load_urdf(urdf), tmp_path / "cache").files["a"]
     assert second != first
     red_channel, green, _, _ = colour(glb(second))
     assert green > red_channel

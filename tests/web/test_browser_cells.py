@@ -57,6 +57,7 @@ def test_robots_without_meshes_and_a_reloaded_cell(browser: Browser, tmp_path: P
         open_page(page, f"{url}/?quality=5", TIMEOUT_MS)
         # No mesh: a ball per link frame and sticks between them are drawn instead.
         assert page.evaluate("window.linkview.robotState('bare').visible")
+        assert page.evaluate("window.linkview.robotState('bare').standIns") == 4
         page.wait_for_timeout(200)
         assert page.evaluate("window.linkview.renderInfo.triangles") > 500
         before = page.evaluate("window.linkview.linkMatrices('bare')[0]")

@@ -1,0 +1,123 @@
+"""The timeline in a real browser: pause, seek back, the readouts show then; Live is now again."""
+
+from __future__ import annotations
+
+import json
+import math
+import urllib.request
+from collections.abc import Iterator
+from urllib.parse import urlencode
+
+import pytest
+from playwright.sync_api import Browser
+
+from tests.web._browser import ROOT, Watched, free_port, open_page, post_json, server_process, watch
+
+TIMEOUT_MS = 30_000
+ROBOT = "iiwa7"
+
+
+@pytest.fixture(scope="module")
+def server_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    log = tmp_path_factory.mktemp("server") / "server.log"
+    with server_process(free_port(), log, "--history", "60") as url:
+        yield url
+
+
+@pytest.fixture(scope="module")
+def viewer(browser: Browser, server_url: str) -> Iterator[Watched]:
+    page = browser.new_page(viewport={"width": 720, "height": 480})  # software WebGL: few pixels
+    watched = watch(page)
+    open_page(page, f"{server_url}/?quality=5", 3 * TIMEOUT_MS)  # software WebGL on busy cores
+    yield watched
+    page.close()
+
+
+def history_json(url: str, t_from: float, t_to: float) -> dict:  # type: ignore[type-arg]
+    query = urlencode({"source": "demo", "from": t_from, "to": t_to, "format": "json"})
+    with urllib.request.urlopen(f"{url}/api/history?{query}", timeout=10) as response:
+        body: dict = json.loads(response.read())  # type: ignore[type-arg]
+    return body
+
+
+def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str) -> None:
+    page = viewer.page
+    page.wait_for_timeout(7000)  # more than 5 s of history to go back into
+    page.get_by_role("button", name="pause on this moment (space)").click()
+    page.wait_for_function("window.linkview.timeline.mode === 'paused'")
+    paused = page.evaluate("window.linkview.timeline")
+    target = paused["moment"] - 5.0
+    span = paused["span"]
+    value = round((target - span["from"]) / (span["to"] - span["from"]) * 1000)
+    slider = page.get_by_role("slider", name="Timeline")
+    assert page.get_by_text("Timeline", exact=True).is_visible()
+    slider.fill(str(value))  # sets the value and fires input, as dragging does
+    page.wait_for_function(
+        f"Math.abs(window.linkview.timeline.moment - {target}) < 0.1"
+        f" && window.linkview.timeline.fetches > 0"
+    )
+    moment = page.evaluate("window.linkview.timeline.moment")
+    # The sample shown: the last one at or before the moment.
+    window = history_json(server_url, moment - 0.5, moment)
+    (robot,) = [r for r in window["robots"] if r["name"] == ROBOT]
+    joints = robot["joints"][-1]
+    page.wait_for_function(
+        "([name, q]) => { const r = window.linkview.readout(name);"
+        " return r && r.joints.every((v, i) => Math.abs(v - q[i]) < 1e-5); }",
+        [ROBOT, joints],
+        timeout=TIMEOUT_MS,
+    )
+    shown = page.evaluate(f"window.linkview.readout('{ROBOT}')")
+    status, fk = post_json(f"{server_url}/api/robots/{ROBOT}/fk", {"joints": [joints]})
+    assert status == 200
+    x, y, z = (1000.0 * v for v in fk["tcp"][0][:3])
+    assert math.isclose(float(shown["tcp"]["x"]), x, abs_tol=0.15)
+    assert math.isclose(float(shown["tcp"]["y"]), y, abs_tol=0.15)
+    assert math.isclose(float(shown["tcp"]["z"]), z, abs_tol=0.15)
+    state = page.get_by_role("status").filter(has_text="NOT LIVE")
+    assert state.is_visible() and "paused at" in state.inner_text()
+    assert page.evaluate("document.body.classList.contains('not-live')")
+    artifacts = ROOT / "tests" / "artifacts"
+    artifacts.mkdir(exist_ok=True)
+    page.screenshot(path=str(artifacts / "timeline_paused.png"))
+
+    # Arrows step one sample; Live returns to the present.
+    page.keyboard.press("ArrowRight")
+    page.wait_for_function(f"window.linkview.timeline.moment > {moment}")
+    stepped = page.evaluate("window.linkview.timeline.moment")
+    assert stepped - moment < 0.2
+    page.get_by_role("button", name="back to the live view").click()
+    page.wait_for_function("window.linkview.timeline.mode === 'live'")
+    page.wait_for_function(
+        "([name, q]) => { const r = window.linkview.readout(name);"
+        " return r && r.joints.some((v, i) => Math.abs(v - q[i]) > 1e-3); }",
+        [ROBOT, joints],
+        timeout=TIMEOUT_MS,
+    )
+    live = page.evaluate("window.linkview.timeline")
+    assert live["moment"] is None and live["liveT"] > paused["moment"]
+    assert not page.evaluate("document.body.classList.contains('not-live')")
+    viewer.assert_clean()
+
+
+def test_space_plays_and_pauses_at_the_chosen_speed(viewer: Watched) -> None:
+    page = viewer.page
+    page.locator("body").click(position={"x": 360, "y": 200})
+    page.keyboard.press("Space")
+    page.wait_for_function("window.linkview.timeline.mode === 'paused'")
+    paused = page.evaluate("window.linkview.timeline")
+    span = paused["span"]
+    back = (paused["moment"] - 10.0 - span["from"]) / (span["to"] - span["from"])
+    page.get_by_role("slider", name="Timeline").fill(str(round(back * 1000)))
+    page.wait_for_function(f"window.linkview.timeline.moment < {paused['moment'] - 5}")
+    page.get_by_role("button", name="play at 4 times real time").click()
+    page.evaluate("document.activeElement.blur()")  # space on a focused button clicks it
+    page.keyboard.press("Space")
+    page.wait_for_function("window.linkview.timeline.mode === 'playing'")
+    start = page.evaluate("window.linkview.timeline.moment")
+    page.wait_for_function(f"window.linkview.timeline.moment > {start} + 2", timeout=TIMEOUT_MS)
+    assert page.evaluate("window.linkview.timeline.speed") == 4
+    page.keyboard.press("Space")
+    page.wait_for_function("window.linkview.timeline.mode === 'paused'")
+    page.get_by_role("button", name="back to the live view").click()
+    viewer.assert_clean()
