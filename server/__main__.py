@@ -1,4 +1,4 @@
-"""``python -m server``: serve the viewer; ``python -m server check FILE``: check a cell file."""
+"""``python -m server``: serve the viewer; ``check FILE``: check a cell file; ``discover URL``."""
 
 from __future__ import annotations
 
@@ -36,6 +36,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         description=ACQUIRE_HELP
         if worker
         else "Serve the live 3D view. `python -m server check FILE` checks a cell file; "
+        "`python -m server discover URL` writes one for a controller; "
         "`python -m server acquire` runs an acquisition worker of a cluster.",
     )
     parser.set_defaults(host=None, port=None, viewer_token=None, allow_origin=None)
@@ -157,11 +158,21 @@ def check(argv: list[str]) -> int:
     return status
 
 
+def discover(argv: list[str]) -> int:
+    """Write a starter cell for a controller's axes and kinematics; the exit status."""
+    from .discover.cli import main as discover_main  # only this command needs it
+
+    setup_logging()
+    return discover_main(argv)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the server until interrupted (or check cell files)."""
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["check"]:
         sys.exit(check(argv[1:]))
+    if argv[:1] == ["discover"]:
+        sys.exit(discover(argv[1:]))
     if argv[:1] == ["acquire"]:
         sys.exit(acquire(argv[1:]))
     settings = parse_settings(argv)

@@ -36,6 +36,14 @@ class JointInfo(_Message):
     unit: Literal["rad", "m"]
     limits: list[float] | None = None
     """[lower, upper] in ``unit``; None: unlimited."""
+    node: str = ""
+    """The data-layer node the joint reads."""
+    source_unit: Literal["deg", "rad", "mm", "m"] = "rad"
+    """The node's unit: SI value = (node value x scale + offset) converted from it."""
+    scale: float = 1.0
+    offset: float = 0.0
+    setpoint: str | None = None
+    """The node of the joint's setpoint; frames then carry the setpoint pose too."""
 
 
 class LinkInfo(_Message):
@@ -84,6 +92,15 @@ class Hello(_Message):
     robots: list[RobotInfo]
 
 
+class SetpointPose(_Message):
+    """The pose the controller commands (its setpoint), beside the actual one."""
+
+    joints: list[float]
+    """Setpoint joint values in SI units, in hello order."""
+    links: list[Pose7]
+    tcp: Pose7
+
+
 class Frame(_Message):
     type: Literal["frame"]
     robot: str
@@ -100,6 +117,8 @@ class Frame(_Message):
     ok: bool
     error: str | None
     """Why the sample could not be turned into poses; the page keeps the last good pose."""
+    setpoint: SetpointPose | None = None
+    """Only for robots whose joints name a setpoint node, and only when both poses are ok."""
 
 
 class Status(_Message):
@@ -129,11 +148,17 @@ FRAMES_KIND = 1
 FRAMES_HEADER = struct.Struct("<BBHIdd")
 """kind = 1, version = 2, robot_count, seq, t_source, t_sent (unix s): 24 bytes."""
 ROBOT_HEADER = struct.Struct("<HBBHH")
-"""robot_index (hello order), ok, joint_count, link_count, error_bytes: 8 bytes.
+"""robot_index (hello order), flags, joint_count, link_count, error_bytes: 8 bytes.
 
 Then ``f32 joints[joint_count]``, ``f32 links[link_count * 7]``, ``f32 tcp[7]``
-and ``error_bytes`` of UTF-8 error text. Where ok is 0, link_count is 0.
+and ``error_bytes`` of UTF-8 error text. Where ok is 0, link_count is 0. With
+``FLAG_SETPOINT``, the setpoint follows in the same layout: ``f32
+joints[joint_count]``, ``f32 links[link_count * 7]``, ``f32 tcp[7]``.
 """
+FLAG_OK = 1
+"""The robot has poses."""
+FLAG_SETPOINT = 2
+"""The setpoint pose follows the error text (only together with FLAG_OK)."""
 
 F32 = npt.NDArray[np.float32]
 
@@ -149,6 +174,17 @@ class RobotFrame2:
     """``(link_count, 7)``: x, y, z, qx, qy, qz, qw."""
     tcp: F32
     error: str | None
+    setpoint: Setpoint2 | None = None
+
+
+@dataclass(frozen=True)
+class Setpoint2:
+    """The setpoint pose of a robot in a protocol-2 frames message (SI units, base frame)."""
+
+    joints: F32
+    links: F32
+    """``(link_count, 7)``."""
+    tcp: F32
 
 
 @dataclass(frozen=True)
@@ -170,22 +206,34 @@ def decode_frames(data: bytes) -> Frames2:
         raise ValueError(f"not a protocol-2 frames message (kind {kind}, version {version})")
     at, robots = FRAMES_HEADER.size, []
     for _ in range(count):
-        index, ok, n_joints, n_links, n_error = ROBOT_HEADER.unpack_from(data, at)
+        index, flags, n_joints, n_links, n_error = ROBOT_HEADER.unpack_from(data, at)
         at += ROBOT_HEADER.size
-        floats = np.frombuffer(data, "<f4", n_joints + 7 * n_links + 7, at)
-        at += floats.nbytes
+        joints, links, tcp = _pose_floats(data, at, n_joints, n_links)
+        at += 4 * (n_joints + 7 * n_links + 7)
         error = data[at : at + n_error].decode("utf-8") if n_error else None
         at += n_error
+        setpoint = None
+        if flags & FLAG_SETPOINT:
+            setpoint = Setpoint2(*_pose_floats(data, at, n_joints, n_links))
+            at += 4 * (n_joints + 7 * n_links + 7)
         robots.append(
             RobotFrame2(
                 robot_index=index,
-                ok=bool(ok),
-                joints=floats[:n_joints],
-                links=floats[n_joints : n_joints + 7 * n_links].reshape(n_links, 7),
-                tcp=floats[n_joints + 7 * n_links :],
+                ok=bool(flags & FLAG_OK),
+                joints=joints,
+                links=links,
+                tcp=tcp,
                 error=error,
+                setpoint=setpoint,
             )
         )
     if at != len(data):
         raise ValueError(f"{len(data) - at} bytes left over after {count} robots")
     return Frames2(seq, t_source, t_sent, robots)
+
+
+def _pose_floats(data: bytes, at: int, n_joints: int, n_links: int) -> tuple[F32, F32, F32]:
+    """Joints, links ``(n_links, 7)`` and TCP read from ``data`` at ``at``."""
+    floats = np.frombuffer(data, "<f4", n_joints + 7 * n_links + 7, at)
+    links = floats[n_joints : n_joints + 7 * n_links].reshape(n_links, 7)
+    return floats[:n_joints], links, floats[n_joints + 7 * n_links :]

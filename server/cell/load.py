@@ -283,7 +283,15 @@ class _Builder:
                 scale=entry.scale,
                 offset=entry.offset,
                 limits=built.limits[slot],
+                setpoint=None if entry.setpoint is None else entry.setpoint.strip("/"),
             )
+        with_setpoint = [entry.setpoint is not None for entry in entries]
+        if any(with_setpoint) and not all(with_setpoint):
+            k = with_setpoint.index(False)
+            self.problems.append(
+                (f"{key}.joints[{k}].setpoint", "give every joint a setpoint node, or none")
+            )
+            ok = False
         return tuple(joints) if ok else None
 
     def _joint_order(

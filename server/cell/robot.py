@@ -44,6 +44,8 @@ class Joint:
     offset: float = 0.0
     limits: tuple[float, float] | None = None
     """[lower, upper] in rad or m; None: unlimited."""
+    setpoint: str | None = None
+    """Node of the joint's setpoint (interpolated position), mapped as ``node`` is."""
 
     @property
     def si_unit(self) -> Literal["rad", "m"]:
@@ -95,6 +97,16 @@ class Robot:
         return tuple(j.node for j in self.joints)
 
     @cached_property
+    def setpoint_nodes(self) -> tuple[str, ...]:
+        """Data-layer nodes of the joints' setpoints in joint order; empty when it has none."""
+        return tuple(j.setpoint for j in self.joints if j.setpoint is not None)
+
+    @cached_property
+    def followed(self) -> tuple[str, ...]:
+        """Every node this robot reads: the joints', then their setpoints'."""
+        return self.nodes + self.setpoint_nodes
+
+    @cached_property
     def _affine(self) -> tuple[Array, Array]:
         factor = np.array([UNIT_SCALE[j.source_unit] for j in self.joints])
         gain = np.array([j.scale for j in self.joints]) * factor
@@ -131,7 +143,16 @@ class Robot:
             commandable=commandable,
             params=self.kinematics.params(),
             joints=[
-                JointInfo(name=j.name, unit=j.si_unit, limits=list(j.limits) if j.limits else None)
+                JointInfo(
+                    name=j.name,
+                    unit=j.si_unit,
+                    limits=list(j.limits) if j.limits else None,
+                    node=j.node,
+                    source_unit=j.source_unit,
+                    scale=j.scale,
+                    offset=j.offset,
+                    setpoint=j.setpoint,
+                )
                 for j in self.joints
             ],
             links=[LinkInfo(name=n, mesh=self.mesh_url(i)) for i, n in enumerate(self.link_names)],

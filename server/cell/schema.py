@@ -61,6 +61,8 @@ class Joint(_Strict):
     offset: Finite = 0.0
     joint: str | None = None
     """The kinematics' joint this entry drives (URDF joint name); default: by position."""
+    setpoint: Annotated[str, Field(min_length=1)] | None = None
+    """Node of the joint's setpoint (e.g. ``.../state/values/ipo/pos``), same unit and mapping."""
 
 
 class Type12(_Strict):

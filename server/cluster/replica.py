@@ -19,7 +19,9 @@ import contextlib
 import hashlib
 import logging
 import time
+from typing import Any
 
+import numpy as np
 import orjson
 from redis.asyncio import Redis
 from redis.exceptions import RedisError
@@ -61,6 +63,17 @@ def session_of(cell: Cell) -> str:
     """The same on every replica serving the same cell (however each names the broker)."""
     infos = [r.info(False).model_dump() for r in cell.robots]
     return hashlib.sha256(orjson.dumps(infos)).hexdigest()[:16]
+
+
+def robot_health(record: dict[str, Any]) -> RobotHealth:
+    """A robot's health as a worker's status record has it."""
+    values = record["values"]
+    return RobotHealth(
+        ok=bool(record["ok"]),
+        error=record["error"],
+        frames=int(record["frames"]),
+        values=None if values is None else np.asarray(values, dtype=np.float64),
+    )
 
 
 class Replica(Runtime):
@@ -236,7 +249,7 @@ class Replica(Runtime):
             status = record["status"]
             health.url, health.mock = status["url"], status["mock"]
             health.warning = status["warning"]
-            health.robots = {n: RobotHealth(**r) for n, r in record["robots"].items()}
+            health.robots = {n: robot_health(r) for n, r in record["robots"].items()}
             self.holders[source] = record["worker"]
         except (orjson.JSONDecodeError, KeyError, TypeError) as exc:
             log.warning("%s: ignored a garbled status of %s: %s", self.id, source, exc)

@@ -106,7 +106,15 @@ class Worker(Runtime):
         health = running.health
         return {
             "status": health.status().model_dump(),
-            "robots": {n: dataclasses.asdict(r) for n, r in health.robots.items()},
+            "robots": {
+                name: {
+                    "ok": robot.ok,
+                    "error": robot.error,
+                    "frames": robot.frames,
+                    "values": None if robot.values is None else robot.values.tolist(),
+                }
+                for name, robot in health.robots.items()
+            },
             "worker": self.id,
         }
 

@@ -1,13 +1,14 @@
 """A mock of the ctrlX CORE REST API (identity manager + data layer) with a simulated machine."""
 
-from .app import build_app, serve
+from .app import DEFAULT_LAG_S, build_app, serve
 from .faults import Faults
-from .machine import UNITS, AxisGroup, Machine, SimAxis, demo_groups
-from .nodes import NodeTree
+from .machine import UNITS, AxisGroup, Machine, SimAxis, Trafo, demo_groups
+from .nodes import NodeTree, Snapshot
 from .state import STATE_KEY, MockState
 from .tls import MockCertificate, make_certificate
 
 __all__ = [
+    "DEFAULT_LAG_S",
     "STATE_KEY",
     "UNITS",
     "AxisGroup",
@@ -17,6 +18,8 @@ __all__ = [
     "MockState",
     "NodeTree",
     "SimAxis",
+    "Snapshot",
+    "Trafo",
     "build_app",
     "demo_groups",
     "make_certificate",

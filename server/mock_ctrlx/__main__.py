@@ -8,7 +8,8 @@ import tempfile
 from pathlib import Path
 
 from ..logs import setup_logging
-from .app import build_app, serve
+from .app import DEFAULT_LAG_S, build_app, serve
+from .machine import Machine
 from .tls import make_certificate
 
 
@@ -20,6 +21,7 @@ async def _run(args: argparse.Namespace) -> None:
             context = cert.server_context()
             note = f" (trust it with --ctrlx-ca {cert.ca_file})"
         app = build_app(
+            Machine(lag_s=args.lag_ms / 1000.0),
             token_lifetime_s=args.token_lifetime,
             changes_only=args.changes_only,
             subscription_lifetime_s=args.subscription_lifetime,
@@ -51,6 +53,13 @@ def main() -> None:
     )
     parser.add_argument(
         "--tls-dir", metavar="DIR", help="where to write the certificate (default: a temp dir)"
+    )
+    parser.add_argument(
+        "--lag-ms",
+        type=float,
+        default=DEFAULT_LAG_S * 1000.0,
+        metavar="MS",
+        help="how far actual positions trail their setpoints (state/values/ipo/pos)",
     )
     parser.add_argument(
         "--changes-only",

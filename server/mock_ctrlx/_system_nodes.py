@@ -1,11 +1,13 @@
-"""The data layer's own ``datalayer/...`` nodes, as the published description lists them.
+"""The data layer's own ``datalayer/...`` nodes, and the system metrics of ctrlX OS.
 
 The mock has no retain memory, no CurveZMQ and no real-time nodes, so their
-values are plausible constants; the settings are stored when written.
+values are plausible constants; the settings are stored when written. The
+``framework/metrics/system/...`` values change with time.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 SYSTEM = "datalayer"
@@ -61,3 +63,42 @@ def system_nodes(min_publish_ms: int) -> dict[str, dict[str, Any]]:
     for leaf, key in _RETAIN_LEAVES.items():
         nodes[f"{SYSTEM}/retain/stats/{leaf}"] = {"type": "uint32", "value": RETAIN_STATS[key]}
     return nodes
+
+
+METRICS = "framework/metrics/system"
+"""The system metrics ctrlX's own examples read (cpu-utilisation-percent, memused-mb, ...)."""
+METRIC_NAMES = (
+    "cpu-utilisation-percent",
+    "memavailable-mb",
+    "membuffers-mb",
+    "memcache-mb",
+    "memfree-mb",
+    "memtotal-mb",
+    "memused-mb",
+    "memused-percent",
+)
+MEMTOTAL_MB = 3906.25
+"""A 4 GB ctrlX CORE."""
+
+
+def metrics(t: float) -> dict[str, dict[str, Any]]:
+    """The ``framework/metrics/system/...`` doubles at unix time ``t``: a load that wanders.
+
+    A pure function of time, so every client reading at one instant agrees;
+    the memory figures add up as Linux's do (used + free + buffers + cache = total).
+    """
+    cpu = 12.0 + 6.0 * math.sin(0.7 * t) + 3.0 * math.sin(2.3 * t + 1.0)
+    used = 920.0 + 40.0 * math.sin(0.05 * t)
+    buffers, cache = 118.0, 1_024.0 + 16.0 * math.sin(0.11 * t)
+    free = MEMTOTAL_MB - used - buffers - cache
+    values = {
+        "cpu-utilisation-percent": round(min(max(cpu, 0.0), 100.0), 1),
+        "memavailable-mb": free + buffers + cache,
+        "membuffers-mb": buffers,
+        "memcache-mb": cache,
+        "memfree-mb": free,
+        "memtotal-mb": MEMTOTAL_MB,
+        "memused-mb": used,
+        "memused-percent": round(100.0 * used / MEMTOTAL_MB, 1),
+    }
+    return {f"{METRICS}/{name}": {"type": "double", "value": v} for name, v in values.items()}

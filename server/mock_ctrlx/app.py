@@ -34,6 +34,8 @@ IM_BASE = "/identity-manager/api/v2"
 AUTH_BASES = (IM_BASE, "/identity-manager/api/v1.0", "/identity-manager/api/v1")
 DL_V1_BASES = ("/automation/api/v1", "/automation/api/v1.0")
 DEFAULT_USERS = {"boschrexroth": "boschrexroth"}
+DEFAULT_LAG_S = 0.008
+"""How far the demo machine's actual positions trail their setpoints: a few cycles of a drive."""
 
 
 @web.middleware
@@ -161,7 +163,7 @@ def build_app(
             problems_only,
         ]
     )
-    machine = machine or Machine()
+    machine = machine or Machine(lag_s=DEFAULT_LAG_S)
     app[STATE_KEY] = MockState(
         machine=machine,
         tokens=TokenIssuer(users=dict(users or DEFAULT_USERS), lifetime_s=token_lifetime_s),

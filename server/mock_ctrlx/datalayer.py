@@ -9,7 +9,7 @@ import orjson
 from aiohttp import web
 
 from ..ctrlx.timestamps import filetime_from_unix
-from .nodes import NodeError, not_found
+from .nodes import NodeError, Snapshot, not_found
 from .problems import problem, problem_body, request_problem
 from .state import STATE_KEY, MockState
 
@@ -93,11 +93,11 @@ async def delete_node(request: web.Request) -> web.Response:
     return web.Response(status=204)
 
 
-def read(state: MockState, node: str, positions: dict[str, float] | None = None) -> dict[str, Any]:
+def read(state: MockState, node: str, snapshot: Snapshot | None = None) -> dict[str, Any]:
     """The Data of ``node``, the subscription nodes of ``datalayer/subscriptions`` included."""
     match = _SUBSCRIPTION_NODE.fullmatch(node)
     if match is None:
-        return state.nodes.read(node, positions)
+        return state.nodes.read(node, snapshot)
     spec = state.subscriptions.get(match["id"])
     if spec is None:
         raise not_found(node)
@@ -123,14 +123,14 @@ async def bulk(request: web.Request) -> web.Response:
     except BadBody as exc:
         return request_problem(request, 400, "DL_INVALID_VALUE", str(exc))
     t = state.machine.now()
-    positions = state.machine.snapshot(t)  # one instant for every node of the request
+    snapshot = Snapshot(state.machine, t)  # one instant for every node of the request
     stamp = str(filetime_from_unix(t))
     answer: list[dict[str, Any]] = []
     for item in items:
         node = item["address"].strip("/")
         entry: dict[str, Any] = {"address": item["address"], "timestamp": stamp}
         try:
-            data = _bulk_one(state, kind, node, item, positions, t)
+            data = _bulk_one(state, kind, node, item, snapshot, t)
             entry["result"] = "DL_OK"
             if data is not None:
                 entry.update(type=data["type"], value=data["value"])
@@ -146,11 +146,11 @@ def _bulk_one(
     kind: str,
     node: str,
     item: dict[str, Any],
-    positions: dict[str, float],
+    snapshot: Snapshot,
     t: float,
 ) -> dict[str, Any] | None:
     if kind == "read":
-        return read(state, node, positions)
+        return read(state, node, snapshot)
     if kind == "write":
         return state.nodes.write(node, item if "value" in item else None, t)
     if kind == "create":

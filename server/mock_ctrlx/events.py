@@ -25,7 +25,7 @@ from aiohttp import web
 from ..ctrlx.pacing import Pacer
 from ..ctrlx.timestamps import filetime_from_unix
 from .datalayer import BadBody, json_body, read
-from .nodes import MIN_PUBLISH_MS, NodeError
+from .nodes import MIN_PUBLISH_MS, NodeError, Snapshot
 from .problems import problem_body, request_problem
 from .state import DL_BASE, STATE_KEY, MockState, SubscriptionSpec, bearer_token
 
@@ -197,12 +197,12 @@ class _Publisher:
         """Events for every node that has something to say at ``now`` (loop time)."""
         machine = self._state.machine
         t = machine.now()
-        positions = machine.snapshot(t)
+        snapshot = Snapshot(machine, t)
         stamp = filetime_from_unix(t)
         parts: list[bytes] = []
         for node in list(self._spec.nodes):  # a PUT may change the list between cycles
             try:
-                data = read(self._state, node, positions)
+                data = read(self._state, node, snapshot)
             except NodeError as err:
                 if now - self._last_error.get(node, -math.inf) >= self._spec.error_ms / 1000:
                     self._last_error[node] = now

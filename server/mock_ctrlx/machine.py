@@ -11,6 +11,9 @@ resumes from there, so a command never stops the demo for good.
 Values are in each axis's own unit (``deg``, ``rad``, ``mm`` or ``m``, as the
 data layer serves them), velocities per second and accelerations per second
 squared: the planner's arithmetic is the same in any unit.
+
+The planned trajectory is the setpoint (a ctrlX axis's ``state/values/ipo/pos``);
+the actual position follows it ``lag_s`` later, as a drive's does.
 """
 
 from __future__ import annotations
@@ -47,6 +50,9 @@ class SimAxis:
     hi: float = np.inf
     node: str | None = None
     """Data-layer address of the actual position (None: ``ACTUAL_POS`` with the axis name)."""
+    setpoint_node: str | None = None
+    """Where an axis at its own address serves its setpoint; None: nowhere (at the default
+    address the motion tree has ``state/values/ipo/pos`` anyway)."""
 
     def __post_init__(self) -> None:
         if self.unit not in UNITS:
@@ -61,13 +67,51 @@ class SimAxis:
 
 
 @dataclass(frozen=True)
+class Trafo:
+    """A joint transformation as the controller describes it: its name and parameters."""
+
+    name: str
+    params: tuple[tuple[str, float, str], ...]
+    """``(name, value, unit)`` of each parameter, e.g. ``("L1", 200.0, "mm")``."""
+    axes: tuple[str, ...]
+    """The names the transformation gives its axes, in ACS index order."""
+
+
+@dataclass(frozen=True)
 class AxisGroup:
-    """Axes that move together (one robot) and the demo targets they cycle through."""
+    """Axes that move together (one robot) and the demo targets they cycle through.
+
+    ``kinematics``: the joint transformation of the ctrlX kinematics these axes
+    form (served under ``motion/kin/<name>``); None for loose axes.
+    """
 
     name: str
     axes: tuple[SimAxis, ...]
     targets: tuple[tuple[float, ...], ...]
     dwell_s: float = 0.3
+    kinematics: Trafo | None = None
+
+
+TYPE12_TRAFO = Trafo(
+    "IndraMotionType12",
+    tuple(
+        (f"L{i}", length, "mm") for i, length in enumerate((200.0, 150.0, 100.0, 200.0, 100.0), 1)
+    ),
+    ("a0", "a1"),
+)
+"""The IndraMotion MLC kinematic Type 12 (five-bar), with the demo cell's link lengths."""
+_IIWA_D = (340.0, 0.0, 400.0, 0.0, 400.0, 0.0, 126.0)
+_IIWA_ALPHA = (-90.0, 90.0, 90.0, -90.0, -90.0, 90.0, 0.0)
+IIWA_TRAFO = Trafo(
+    "DenavitHartenberg",
+    tuple(
+        param
+        for i, (d, alpha) in enumerate(zip(_IIWA_D, _IIWA_ALPHA, strict=True), 1)
+        for param in ((f"d{i}", d, "mm"), (f"a{i}", 0.0, "mm"), (f"alpha{i}", alpha, "deg"))
+    ),
+    tuple(f"A{i}" for i in range(1, 8)),
+)
+"""The KUKA LBR iiwa 7 R800 as a standard Denavit-Hartenberg table."""
 
 
 def _deg(name: str, v: float, a: float, limit: float | None = None) -> SimAxis:
@@ -87,6 +131,7 @@ def demo_groups() -> list[AxisGroup]:
             "kin12",
             (_deg("kin12_a0", 60.0, 200.0, 40.0), _deg("kin12_a1", 60.0, 200.0, 40.0)),
             ((0.0, 0.0), (30.0, -25.0), (-20.0, 30.0), (35.0, 20.0), (-30.0, -30.0)),
+            kinematics=TYPE12_TRAFO,
         ),
         AxisGroup(
             "iiwa",
@@ -99,6 +144,7 @@ def demo_groups() -> list[AxisGroup]:
                 (-50.0, 30.0, 40.0, -80.0, -60.0, 30.0, -100.0),
                 (20.0, 70.0, 10.0, -20.0, 30.0, 75.0, 45.0),
             ),
+            kinematics=IIWA_TRAFO,
         ),
         AxisGroup(
             "pos",
@@ -169,6 +215,7 @@ class Machine:
         clock: Callable[[], float] = time.time,
         *,
         command_dwell_s: float = 2.0,
+        lag_s: float = 0.0,
     ) -> None:
         self.groups = {g.name: g for g in (demo_groups() if groups is None else groups)}
         self.axes = {a.name: a for g in self.groups.values() for a in g.axes}
@@ -180,33 +227,44 @@ class Machine:
         self._lock = threading.Lock()
         self.clock = clock
         self.command_dwell_s = command_dwell_s
+        if lag_s < 0.0:
+            raise ValueError(f"lag_s must not be negative, not {lag_s}")
+        self.lag_s = lag_s
+        """How far the actual positions trail the setpoints (s)."""
 
     def now(self) -> float:
         """Current time of the simulation (unix s)."""
         return float(self.clock())
 
     def group_positions(self, group: str, t: float | None = None) -> Array:
-        """Positions of ``group``'s axes at ``t`` (default now), in axis order."""
+        """Actual positions of ``group``'s axes at ``t`` (default now), in axis order."""
+        t = self.now() if t is None else t
+        return self.group_setpoints(group, t - self.lag_s)
+
+    def group_setpoints(self, group: str, t: float | None = None) -> Array:
+        """Setpoints (the planned positions) of ``group``'s axes at ``t`` (default now)."""
         t = self.now() if t is None else t
         commanded = self._commanded.get(group)
         if commanded is not None:
             return commanded.positions(t, self._cycles[group])
         return self._cycles[group].positions(t)
 
-    def snapshot(self, t: float | None = None) -> dict[str, float]:
-        """Every axis's position at one instant ``t`` (default now)."""
+    def snapshot(self, t: float | None = None, *, setpoints: bool = False) -> dict[str, float]:
+        """Every axis's actual position (or setpoint) at one instant ``t`` (default now)."""
         t = self.now() if t is None else t
+        at = self.group_setpoints if setpoints else self.group_positions
         out: dict[str, float] = {}
         for name, group in self.groups.items():
-            for axis, value in zip(group.axes, self.group_positions(name, t), strict=True):
+            for axis, value in zip(group.axes, at(name, t), strict=True):
                 out[axis.name] = float(value)
         return out
 
-    def position(self, axis: str, t: float | None = None) -> float:
-        """Position of ``axis`` at ``t`` (default now); KeyError if unknown."""
+    def position(self, axis: str, t: float | None = None, *, setpoint: bool = False) -> float:
+        """Actual position (or setpoint) of ``axis`` at ``t`` (default now); KeyError if unknown."""
         group = self._group_of[axis]
         index = [a.name for a in self.groups[group].axes].index(axis)
-        return float(self.group_positions(group, t)[index])
+        at = self.group_setpoints if setpoint else self.group_positions
+        return float(at(group, t)[index])
 
     def command(self, group: str, target: Sequence[float], t: float | None = None) -> float:
         """Move ``group`` to ``target`` (one value per axis) from where it is at ``t``.
@@ -228,7 +286,7 @@ class Machine:
         acc = np.array([a.a_max for a in axes])
         first = np.asarray(self.groups[group].targets[0], dtype=np.float64)
         with self._lock:
-            move = plan_movej(self.group_positions(group, t), goal, v, acc)
+            move = plan_movej(self.group_setpoints(group, t), goal, v, acc)
             back_t0 = t + move.duration + self.command_dwell_s
             back = plan_movej(goal, first, v, acc)
             # Arrive, dwell as at every demo target, then the cycle's first move starts.
@@ -240,7 +298,7 @@ class Machine:
         """Move one axis to ``target``; the other axes of its group hold their positions."""
         group = self._group_of[axis]
         t = self.now() if t is None else t
-        goal = self.group_positions(group, t).copy()
+        goal = self.group_setpoints(group, t).copy()
         goal[[a.name for a in self.groups[group].axes].index(axis)] = target
         return self.command(group, goal.tolist(), t)
 
@@ -253,4 +311,4 @@ class Machine:
         return self._group_of[axis]
 
 
-__all__ = ["UNITS", "AxisGroup", "Machine", "SimAxis", "Unit", "demo_groups"]
+__all__ = ["UNITS", "AxisGroup", "Machine", "SimAxis", "Trafo", "Unit", "demo_groups"]

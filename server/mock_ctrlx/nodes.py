@@ -3,15 +3,22 @@
 Nodes (``<axis>`` and ``<group>`` from the machine):
 
 * each axis's position node, a double in the axis's unit: ``SimAxis.node`` when
-  given, else ``motion/axs/<axis>/state/values/actual/pos``; an axis at the
-  default address also has ``motion/axs/<axis>/state/values/actual`` (object
-  ``{actualPos, actualPosUnit}``), ``cmd/pos-abs`` (write ``{"axsPos": x}`` or a
-  number to move it) and ``cmd/reset``;
+  given, else ``motion/axs/<axis>/state/values/actual/pos``; its setpoint at
+  ``SimAxis.setpoint_node`` where given. An axis at the default address also
+  has ``motion/axs/<axis>/state/values/actual`` (object ``{actualPos,
+  actualPosUnit}``), ``state/values/ipo/pos`` (the setpoint, which the actual
+  position trails by the machine's lag) and ``state/values/ipo`` (``{ipoPos,
+  ipoPosUnit}``), ``cfg/properties`` and ``cfg/lim``, ``cmd/pos-abs`` (write
+  ``{"axsPos": x}`` or a number to move it) and ``cmd/reset``. Position nodes
+  give their unit in their metadata;
+* ``motion/state/axs-list``, ``motion/state/kin-list`` and, per group with a
+  joint transformation, ``motion/kin/<group>/cfg`` (``_motion_nodes``);
 * ``motion/grp/<group>/cmd/pos-abs``: write ``{"axsPos": [...]}`` to move a group;
   ``motion/grp/<group>/cmd/reset``;
 * ``plc/app/Application/sym/PLC_PRG/...``: plain variables (the seed's ``dTest``
   among them), more can be added with ``add_variable``;
-* ``datalayer/...``: the data layer's own nodes (``_system_nodes``).
+* ``datalayer/...``: the data layer's own nodes, and ``framework/metrics/system/...``
+  (CPU load and memory, changing with time; ``_system_nodes``).
 
 Commands run on a write (PUT) and on a create (POST), as ctrlX motion takes
 them. ``cmd/reset`` takes no argument: an empty body is accepted, as a real
@@ -21,10 +28,11 @@ device accepts empty-argument commands (there is never an error to reset).
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping
+from functools import cached_property
 from typing import Any
 
-from ._system_nodes import FOLDERS, NODE_NAMES, SETTINGS, system_nodes
+from ._motion_nodes import IPO, IPO_POS, motion_config
+from ._system_nodes import FOLDERS, NODE_NAMES, SETTINGS, metrics, system_nodes
 from .machine import Machine
 
 AXES = "motion/axs"
@@ -49,6 +57,24 @@ def not_found(node: str) -> NodeError:
     return NodeError(404, "DL_INVALID_ADDRESS", f"node '{node}' does not exist")
 
 
+class Snapshot:
+    """The machine at one instant: every node read through it agrees on the time."""
+
+    def __init__(self, machine: Machine, t: float | None = None) -> None:
+        self.machine = machine
+        self.t = machine.now() if t is None else t
+
+    @cached_property
+    def actual(self) -> dict[str, float]:
+        """Actual position of every axis."""
+        return self.machine.snapshot(self.t)
+
+    @cached_property
+    def setpoints(self) -> dict[str, float]:
+        """Setpoint of every axis (computed only if a setpoint is read)."""
+        return self.machine.snapshot(self.t, setpoints=True)
+
+
 class NodeTree:
     """Every node of the mock, derived from the machine plus PLC variables and system nodes."""
 
@@ -61,6 +87,9 @@ class NodeTree:
         self.system = system_nodes(MIN_PUBLISH_MS)
         self.positions: dict[str, str] = {}
         """Position node -> axis."""
+        self.setpoints: dict[str, str] = {}
+        """Setpoint node -> axis."""
+        self._ipos: dict[str, str] = {}
         self._actuals: dict[str, str] = {}
         self._axis_cmds: dict[str, str] = {}
         self._group_cmds: dict[str, str] = {}
@@ -69,19 +98,31 @@ class NodeTree:
             if axis.position_node in self.positions:
                 raise ValueError(f"nodes served twice: {axis.position_node}")
             self.positions[axis.position_node] = axis.name
+            if axis.setpoint_node is not None:
+                self.setpoints[axis.setpoint_node.strip("/")] = axis.name
             if axis.node is None:
                 self._actuals[f"{AXES}/{axis.name}/{ACTUAL}"] = axis.name
+                self.setpoints[f"{AXES}/{axis.name}/{IPO_POS}"] = axis.name
+                self._ipos[f"{AXES}/{axis.name}/{IPO}"] = axis.name
                 self._axis_cmds[f"{AXES}/{axis.name}/{AXIS_CMD}"] = axis.name
                 self._resets.add(f"{AXES}/{axis.name}/{RESET}")
         for group in machine.groups:
             self._group_cmds[f"{GROUPS}/{group}/{AXIS_CMD}"] = group
             self._resets.add(f"{GROUPS}/{group}/{RESET}")
+        motion_axes = [a for a in machine.axes.values() if a.node is None]
+        self.config = motion_config(motion_axes, list(machine.groups.values()))
+        """The motion app's configuration nodes (static Data)."""
+        self.metrics = frozenset(metrics(0.0))
         self._children: dict[str, set[str]] = {}
         self._reindex()
 
     def _leaves(self) -> list[str]:
         return [
             *self.positions,
+            *self.setpoints,
+            *self._ipos,
+            *self.config,
+            *self.metrics,
             *self._actuals,
             *self._axis_cmds,
             *self._group_cmds,
@@ -113,22 +154,34 @@ class NodeTree:
         self.variables[node] = {"type": type_, "value": value}
         self._reindex()
 
-    def read(self, node: str, positions: Mapping[str, float] | None = None) -> dict[str, Any]:
-        """The Data body of ``node``; ``positions`` is a machine snapshot to read axes from."""
+    def read(self, node: str, snapshot: Snapshot | None = None) -> dict[str, Any]:
+        """The Data body of ``node``; ``snapshot`` is the instant to read axes at (default now)."""
         node = node.strip("/")
         if node in self.variables:
             return dict(self.variables[node])
         if node in self.system:
             return dict(self.system[node])
+        if node in self.config:
+            return dict(self.config[node])
         if node == NODE_NAMES:
             return {"type": "arstring", "value": sorted(self._leaves())}
+        snapshot = snapshot or Snapshot(self.machine)
+        if node in self.metrics:
+            return metrics(snapshot.t)[node]
         axis = self.positions.get(node) or self._actuals.get(node)
         if axis is not None:
-            pos = positions[axis] if positions is not None else self.machine.position(axis)
+            pos = snapshot.actual[axis]
             if node in self.positions:
                 return {"type": "double", "value": pos}
             unit = self.machine.axes[axis].unit
             return {"type": "object", "value": {"actualPos": pos, "actualPosUnit": unit}}
+        axis = self.setpoints.get(node) or self._ipos.get(node)
+        if axis is not None:
+            pos = snapshot.setpoints[axis]
+            if node in self.setpoints:
+                return {"type": "double", "value": pos}
+            unit = self.machine.axes[axis].unit
+            return {"type": "object", "value": {"ipoPos": pos, "ipoPosUnit": unit}}
         if node in self._children:
             raise NodeError(400, "DL_INVALID_OPERATION", f"node '{node}' cannot be read")
         raise not_found(node)
@@ -146,8 +199,19 @@ class NodeTree:
         if node not in self._children:
             raise not_found(node)
         command = self._is_command(node)
-        axis = self.positions.get(node) or self._actuals.get(node)
-        readable = node in self.variables or node in self.system or axis is not None
+        axis = (
+            self.positions.get(node)
+            or self._actuals.get(node)
+            or self.setpoints.get(node)
+            or self._ipos.get(node)
+        )
+        readable = (
+            node in self.variables
+            or node in self.system
+            or node in self.config
+            or node in self.metrics
+            or axis is not None
+        )
         meta: dict[str, Any] = {
             "nodeClass": "Method" if command else "Resource",
             "operations": {
@@ -161,8 +225,10 @@ class NodeTree:
             "descriptionUrl": "",
             "displayName": node.rsplit("/", 1)[-1],
         }
-        if axis is not None:
-            meta["unit"] = self.machine.axes[axis].unit
+        if node in self.positions or node in self.setpoints:
+            meta["unit"] = self.machine.axes[self.positions.get(node) or self.setpoints[node]].unit
+        elif node in self.metrics:
+            meta["unit"] = "%" if node.endswith("percent") else "MB"
         return meta
 
     def write(self, node: str, body: Any, t: float | None = None) -> dict[str, Any] | None:
@@ -231,6 +297,10 @@ class NodeTree:
             return f"Actual position of axis {self.positions[node]}"
         if node in self._actuals:
             return f"Actual values of axis {self._actuals[node]}"
+        if node in self.setpoints:
+            return f"Setpoint (interpolated position) of axis {self.setpoints[node]}"
+        if node in self._ipos:
+            return f"Interpolated (setpoint) values of axis {self._ipos[node]}"
         if node in self._axis_cmds or node in self._group_cmds:
             return "Absolute move: write {'axsPos': target}"
         if node in self._resets:

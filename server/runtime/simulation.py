@@ -4,7 +4,9 @@ Each robot becomes one axis group of the mock, moving in synchronised
 trapezoids (seed 003's ``movej``) between targets within its joint limits:
 the cell's ``demo_targets`` if given, else targets drawn from a generator
 seeded by the robot's name (the same cell always moves the same way).
-Everything here is in the nodes' units, as the mock serves them.
+Everything here is in the nodes' units, as the mock serves them. A joint's
+``setpoint`` node serves the planned position, which the actual one trails
+by the mock's lag.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import zlib
 import numpy as np
 
 from ..cell import Robot
-from ..mock_ctrlx import AxisGroup, Machine, SimAxis
+from ..mock_ctrlx import DEFAULT_LAG_S, AxisGroup, Machine, SimAxis
 
 SPEED_SI = {"rad": (np.radians(60.0), np.radians(150.0)), "m": (0.25, 1.0)}
 """Velocity and acceleration limits of simulated joints, (per s, per s^2) in SI."""
@@ -37,7 +39,7 @@ def machine_for(robots: list[Robot]) -> Machine:
         group = _group(robot, simulated)
         if group is not None:
             groups.append(group)
-    return Machine(groups)
+    return Machine(groups, lag_s=DEFAULT_LAG_S)
 
 
 def _group(robot: Robot, simulated: set[str]) -> AxisGroup | None:
@@ -60,6 +62,7 @@ def _group(robot: Robot, simulated: set[str]) -> AxisGroup | None:
                 lo=float(lo[i]),
                 hi=float(hi[i]),
                 node=joint.node,
+                setpoint_node=joint.setpoint,
             )
         )
     targets = robot.demo_targets or _drawn_targets(robot, lo, hi)

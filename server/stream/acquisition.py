@@ -22,7 +22,7 @@ from .buckets import Buckets
 from .frames import RobotFrame, compute_frame, encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
-from .types import NoTap, RobotSample, SampleStream, SampleTap
+from .types import Array, NoTap, RobotSample, SampleStream, SampleTap
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +70,7 @@ class Acquisition:
         self.health.period_s = settings.period_s
         self._settings = settings
         self._seq = 0
-        self._nodes = sorted({node for robot in robots for node in robot.nodes})
+        self._nodes = sorted({node for robot in robots for node in robot.followed})
         self._robots: list[tuple[int, Robot]] = []
         self.set_robots(robots, indices)
         self._status_sent = 0.0
@@ -82,7 +82,7 @@ class Acquisition:
 
     def set_robots(self, robots: list[Robot], indices: Mapping[str, int] | None = None) -> None:
         """Swap in new robot definitions that read the same nodes (a reloaded cell)."""
-        if sorted({node for robot in robots for node in robot.nodes}) != self._nodes:
+        if sorted({node for robot in robots for node in robot.followed}) != self._nodes:
             raise ValueError("set_robots cannot change the nodes followed; restart instead")
         positions = indices or {r.name: i for i, r in enumerate(robots)}
         self._robots = [(positions[r.name], r) for r in robots]
@@ -152,11 +152,13 @@ class Acquisition:
     def _frame(self, robot: Robot, sample: Sample) -> RobotFrame:
         read = [sample.values[n] for n in robot.nodes]
         errors = [str(v) for v in read if isinstance(v, Exception)]
+        values = None if errors else np.array(read, dtype=np.float64)
         robot_sample = RobotSample(
             seq=self._seq,
             t_source=sample.t_source,
-            values=None if errors else np.array(read, dtype=np.float64),
+            values=values,
             error="; ".join(errors) if errors else None,
+            setpoints=self._setpoints(robot, sample),
         )
         bug: Exception | None = None
         try:
@@ -165,12 +167,25 @@ class Acquisition:
             bug = exc
             failed = RobotSample(robot_sample.seq, robot_sample.t_source, None, repr(exc))
             frame = compute_frame(robot, failed)
-        if self.health.mark_robot(robot.name, frame.ok, frame.error):  # changes only
+        if self.health.mark_robot(robot.name, frame.ok, frame.error, values):  # changes only
             if frame.ok:
                 log.info("robot %s: streaming", robot.name)
             else:
                 log.warning("robot %s: %s", robot.name, frame.error, exc_info=bug)
         return frame
+
+    @staticmethod
+    def _setpoints(robot: Robot, sample: Sample) -> Array | None:
+        """The setpoint values, if the robot has setpoint nodes and all of them were read.
+
+        A setpoint that cannot be read costs the ghost, never the actual pose.
+        """
+        if not robot.setpoint_nodes:
+            return None
+        read = [sample.values[n] for n in robot.setpoint_nodes]
+        if any(isinstance(v, Exception) for v in read):
+            return None
+        return np.array(read, dtype=np.float64)
 
     def _report_error(self, error: str) -> None:
         self.failures += 1

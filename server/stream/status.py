@@ -5,6 +5,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+import numpy.typing as npt
 import orjson
 
 from ..protocol import SourceStatus
@@ -21,6 +23,8 @@ class RobotHealth:
     ok: bool = False
     error: str | None = "no sample yet"
     frames: int = 0
+    values: npt.NDArray[np.float64] | None = None
+    """The joint nodes' values as last read (node units, joint order), for checking the mapping."""
 
 
 @dataclass
@@ -73,11 +77,19 @@ class SourceHealth:
         self.state, self.error = "error", error
         return changed
 
-    def mark_robot(self, robot: str, ok: bool, error: str | None) -> bool:
-        """A robot's frame was computed."""
+    def mark_robot(
+        self,
+        robot: str,
+        ok: bool,
+        error: str | None,
+        values: npt.NDArray[np.float64] | None = None,
+    ) -> bool:
+        """A robot's frame was computed (from node ``values``, where they could be read)."""
         health = self.robots.setdefault(robot, RobotHealth())
         changed = (health.ok, health.error) != (ok, error)
         health.ok, health.error = ok, error
+        if values is not None:
+            health.values = values
         health.frames += 1
         return changed
 

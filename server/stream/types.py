@@ -42,3 +42,5 @@ class RobotSample:
     """Unix time (s) the data layer sampled the values."""
     values: Array | None
     error: str | None = None
+    setpoints: Array | None = None
+    """The joints' setpoint values (data-layer units) where the robot has setpoint nodes."""

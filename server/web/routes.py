@@ -38,17 +38,21 @@ async def mesh(robot: str, link: int, request: Request) -> FileResponse:
 
 @router.get("/api/robots")
 async def robots(request: Request) -> list[dict[str, Any]]:
-    """Every robot of the cell: joints with their nodes, units and limits, links, source."""
+    """Every robot: joints with their nodes, mapping, limits and newest raw value; links, source."""
     runtime = runtime_of(request)
+    healths = {source.name: source for source in runtime.healths()}  # a replica's too
     out = []
     for robot in runtime.robots:
         info = robot.info(runtime.commandable(robot)).model_dump()
-        for joint, entry in zip(robot.joints, info["joints"], strict=True):
+        source = healths.get(robot.source)
+        state = None if source is None else source.robots.get(robot.name)
+        raw = None if state is None else state.values
+        for k, (joint, entry) in enumerate(zip(robot.joints, info["joints"], strict=True)):
+            # As read from the node (its unit), and what the mapping makes of it.
+            value = None if raw is None else float(raw[k])
             entry.update(
-                node=joint.node,
-                source_unit=joint.source_unit,
-                scale=joint.scale,
-                offset=joint.offset,
+                value=value,
+                value_si=None if value is None else joint.to_si(value),
             )
         out.append(info)
     return out

@@ -1,6 +1,8 @@
 import { ServerClock, nowMs } from './clock.js';
+import { Following } from './following.js';
 import { Hud } from './hud.js';
 import { Labels } from './labels.js';
+import { MappingTables } from './mapping.js';
 import { Panels } from './panels.js';
 import { JointPlots } from './plots.js';
 import { LEVELS, Quality } from './quality.js';
@@ -33,6 +35,8 @@ class App {
 			onFocus: ( name ) => this.focus( name ),
 		} );
 		this.labels = new Labels( root.getElementById( 'labels' ) );
+		this.mapping = new MappingTables( root );
+		this.following = new Following( root, this.stage.world );
 		this.clock = new ServerClock();
 		this.plots = new JointPlots( root.getElementById( 'plots' ) );
 		this.sim = new SimPanel( root, this.stage );
@@ -138,7 +142,7 @@ class App {
 		switch ( message.type ) {
 
 			case 'hello': this._onHello( message ); break;
-			case 'frame': this.clock.observe( message.t_sent, arrival ); this.timeline.noteLive( message.t_source ); this.robots.queue( message, arrival ); break;
+			case 'frame': this.clock.observe( message.t_sent, arrival ); this.timeline.noteLive( message.t_source ); this._queue( message, arrival ); break;
 			case 'status': this.hud.setStatus( message ); break;
 			case 'cell': this.hud.setCell( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
@@ -162,12 +166,20 @@ class App {
 
 			}
 			// The same shape as a protocol-1 `frame` (links flat: 7 numbers per link).
-			this.robots.queue( {
+			this._queue( {
 				type: 'frame', robot: view.name, seq: frames.seq, t_source: frames.t_source, t_sent: frames.t_sent,
 				joints: entry.joints, links: entry.links, tcp: entry.tcp, ok: entry.ok, error: entry.error,
+				setpoint: entry.setpoint,
 			}, arrival );
 
 		}
+
+	}
+
+	_queue( frame, arrival ) {
+
+		this.following.received( frame, arrival );
+		this.robots.queue( frame, arrival );
 
 	}
 
@@ -178,6 +190,8 @@ class App {
 			: `The server speaks protocol ${hello.protocol}; this page expects ${PROTOCOL}. Reload the page.`;
 		const rebuilt = this.robots.setHello( hello );
 		this.hud.setHello( hello, this.views );
+		this.mapping.setHello( hello );
+		this.following.setHello( hello, this.views );
 		if ( ! rebuilt ) return;
 		this.timeline.goLive(); // the history shown described the robots gone by
 		this.labels.rebuild( this.views );
@@ -242,6 +256,7 @@ class App {
 		for ( const frame of this.timeline.live ? this.robots.applyPending( now ) : [] ) {
 
 			const view = this.views.get( frame.robot );
+			this.following.applied( frame );
 			const age = this.clock.ageMs( frame.t_source, now );
 			if ( age !== null ) view.latencyMs = view.latencyMs === null ? age : view.latencyMs + LATENCY_SMOOTHING * ( age - view.latencyMs );
 
@@ -273,6 +288,8 @@ class App {
 			this._hudAt = time;
 			this._updateStates();
 			this.hud.update( views, this.clock, this.protocolError || this.robots.loadError );
+			this.mapping.update( views );
+			this.following.update( now );
 			this.sim.update();
 			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${LEVELS[ this.quality.level ].name}`;
 
@@ -309,6 +326,7 @@ class App {
 		window.removeEventListener( 'keydown', this._onKey );
 		this.stage.setAnimationLoop( null );
 		this.sim.dispose();
+		this.following.dispose();
 		this.plots.dispose();
 		this.panels.dispose();
 		this.labels.dispose();

@@ -58,6 +58,18 @@ window.linkview = Object.freeze( {
 		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings } };
 
 	},
+	/** A robot's Mapping table: per joint { joint, node, setpoint, unit, scale, offset, raw, value } (text as shown). */
+	mapping( name ) {
+
+		return app.mapping.shown( name );
+
+	},
+	/** A robot's setpoint ghost: { on, ghostVisible, readout, largest, recent, ghostMatrices }, or null. */
+	following( name ) {
+
+		return app.following.shown( name );
+
+	},
 	/** The simulation panel: ghosts drawn, which is selected, jog requests sent. */
 	get sim() {
 

@@ -6,8 +6,10 @@
 const FRAMES_KIND = 1;
 const FRAMES_VERSION = 2;
 const FRAMES_HEADER_BYTES = 24; // u8 kind, u8 version, u16 robot_count, u32 seq, f64 t_source, f64 t_sent
-const ROBOT_HEADER_BYTES = 8; // u16 robot_index, u8 ok, u8 joint_count, u16 link_count, u16 error_bytes
+const ROBOT_HEADER_BYTES = 8; // u16 robot_index, u8 flags, u8 joint_count, u16 link_count, u16 error_bytes
 const POSE = 7; // x, y, z, qx, qy, qz, qw
+const FLAG_OK = 1; // the robot has poses
+const FLAG_SETPOINT = 2; // its setpoint pose follows the error text
 
 const _utf8 = new TextDecoder( 'utf-8', { fatal: true } );
 
@@ -33,10 +35,12 @@ function readFloats( view, at, count ) {
 /**
  * Decode a frames message (ArrayBuffer, or a typed array over one).
  * Returns `{ seq, t_source, t_sent, robots }`; each robot is `{ robot_index, ok,
- * joints, links, tcp, error }` with `joints` (SI, hello order), `links` (flat,
- * 7 numbers per link: x, y, z, qx, qy, qz, qw, base frame) and `tcp` (7) as
- * Float32Arrays, and `error` a string or null. Throws an Error for anything
- * that is not exactly one such message, as `decode_frames` in Python does.
+ * joints, links, tcp, error, setpoint }` with `joints` (SI, hello order), `links`
+ * (flat, 7 numbers per link: x, y, z, qx, qy, qz, qw, base frame) and `tcp` (7)
+ * as Float32Arrays, `error` a string or null, and `setpoint` null or `{ joints,
+ * links, tcp }` laid out the same way (robots whose joints have setpoint nodes).
+ * Throws an Error for anything that is not exactly one such message, as
+ * `decode_frames` in Python does.
  */
 function decodeFrames( data ) {
 
@@ -62,7 +66,7 @@ function decodeFrames( data ) {
 
 		if ( at + ROBOT_HEADER_BYTES > size ) throw new Error( `robot ${r} of ${count}: header cut off` );
 		const index = view.getUint16( at, true );
-		const ok = view.getUint8( at + 2 ) !== 0;
+		const flags = view.getUint8( at + 2 );
 		const jointCount = view.getUint8( at + 3 );
 		const linkCount = view.getUint16( at + 4, true );
 		const errorBytes = view.getUint16( at + 6, true );
@@ -79,7 +83,19 @@ function decodeFrames( data ) {
 			? _utf8.decode( new Uint8Array( view.buffer, view.byteOffset + at, errorBytes ) )
 			: null;
 		at += errorBytes;
-		robots[ r ] = { robot_index: index, ok, joints, links, tcp, error };
+		let setpoint = null;
+		if ( flags & FLAG_SETPOINT ) {
+
+			if ( at + 4 * floatCount > size ) throw new Error( `robot ${r} of ${count}: setpoint cut off` );
+			setpoint = {
+				joints: readFloats( view, at, jointCount ),
+				links: readFloats( view, at + 4 * jointCount, POSE * linkCount ),
+				tcp: readFloats( view, at + 4 * ( jointCount + POSE * linkCount ), POSE ),
+			};
+			at += 4 * floatCount;
+
+		}
+		robots[ r ] = { robot_index: index, ok: ( flags & FLAG_OK ) !== 0, joints, links, tcp, error, setpoint };
 
 	}
 	if ( at !== size ) throw new Error( `${size - at} bytes left over after ${count} robots` );
@@ -87,4 +103,4 @@ function decodeFrames( data ) {
 
 }
 
-export { FRAMES_HEADER_BYTES, FRAMES_KIND, FRAMES_VERSION, POSE, ROBOT_HEADER_BYTES, decodeFrames, isFrames };
+export { FLAG_OK, FLAG_SETPOINT, FRAMES_HEADER_BYTES, FRAMES_KIND, FRAMES_VERSION, POSE, ROBOT_HEADER_BYTES, decodeFrames, isFrames };

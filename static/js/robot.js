@@ -409,7 +409,8 @@ class RobotView {
 
 	/**
 	 * A translucent copy of the robot's links for previewing a configuration:
-	 * `{ group, setPoses(links) , setLook(selected, outside) , dispose() }`.
+	 * `{ group, setPoses(links, tcp), setLook(selected, outside), linkMatrices(), dispose() }`.
+	 * Ball-and-stick stand-ins get their sticks too (to the next link, or to `tcp` when given).
 	 */
 	makeGhost() {
 
@@ -443,20 +444,51 @@ class RobotView {
 			return copy;
 
 		} );
+		const tcp = new THREE.Object3D();
+		group.add( tcp );
+		const sticks = this._sticks.map( ( [ stick, from, to ] ) => {
+
+			const copy = new THREE.Mesh( stick.geometry, material );
+			group.add( copy );
+			const next = to === this.tcp ? tcp : nodes[ this.nodes.indexOf( to ) ];
+			return [ copy, nodes[ this.nodes.indexOf( from ) ], next ];
+
+		} );
 		const color = this.color.clone();
 		return {
 			group,
-			setPoses( links ) {
+			setPoses( links, tcpPose = null ) {
 
 				const poses = flatPoses( links );
 				const count = Math.min( poses.length / POSE, nodes.length );
 				for ( let i = 0; i < count; i ++ ) setPose( nodes[ i ], poses, i * POSE );
+				const withTcp = tcpPose !== null && tcpPose.length === POSE;
+				if ( withTcp ) setPose( tcp, tcpPose );
+				for ( const [ stick, from, to ] of sticks ) {
+
+					_a.copy( from.position );
+					_b.copy( to.position ).sub( _a );
+					const length = _b.length();
+					stick.visible = length > 1e-6 && ( withTcp || to !== tcp ); // no TCP given: no stick to it
+					if ( ! stick.visible ) continue;
+					stick.position.copy( _a );
+					stick.quaternion.setFromUnitVectors( _up, _b.divideScalar( length ) );
+					stick.scale.set( 1, length, 1 );
+
+				}
 
 			},
 			setLook( selected, outside ) {
 
 				material.color.set( outside ? 0xd6352b : color );
 				material.opacity = selected ? 0.5 : 0.2;
+
+			},
+			/** World matrices of the ghost's links (hello order), 16 numbers each (column-major). */
+			linkMatrices() {
+
+				group.updateWorldMatrix( true, true );
+				return nodes.map( ( node ) => Array.from( node.matrixWorld.elements ) );
 
 			},
 			dispose() {

@@ -259,3 +259,27 @@ def test_docs_describe_every_key_and_their_example_is_valid() -> None:
     for model in models:
         missing = set(model.model_fields) - named
         assert not missing, f"docs/cell.md does not describe {model.__name__}.{missing}"
+
+
+def test_setpoint_nodes_are_mapped_as_their_joints_and_given_for_all_or_none(
+    tmp_path: Path,
+) -> None:
+    robot = TYPE12.replace(
+        '{ node = "a" }', '{ node = "a", scale = 0.5, setpoint = "/a/ipo/" }'
+    ).replace('{ node = "b" }', '{ node = "b", setpoint = "b/ipo" }')
+    (kin,) = load_cell(write(tmp_path, SOURCE + robot), env={}, cache_dir=tmp_path).robots
+    assert kin.setpoint_nodes == ("a/ipo", "b/ipo")
+    assert kin.followed == ("a", "b", "a/ipo", "b/ipo")
+    info = kin.info().joints[0]
+    assert (info.node, info.setpoint, info.scale, info.source_unit) == ("a", "a/ipo", 0.5, "deg")
+    (plain,) = load_cell(
+        write(tmp_path, SOURCE + TYPE12, "plain.toml"), env={}, cache_dir=tmp_path
+    ).robots
+    assert plain.setpoint_nodes == () and plain.followed == ("a", "b")
+    half = TYPE12.replace('{ node = "b" }', '{ node = "b", setpoint = "b/ipo" }')
+    assert problems(write(tmp_path, SOURCE + half, "half.toml")) == [
+        "robot[0].joints[0].setpoint: give every joint a setpoint node, or none"
+    ]
+    empty = TYPE12.replace('{ node = "b" }', '{ node = "b", setpoint = "" }')
+    (message,) = problems(write(tmp_path, SOURCE + empty, "empty.toml"))
+    assert message.startswith("robot[0].joints[1].setpoint:")

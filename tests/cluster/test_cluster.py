@@ -68,8 +68,17 @@ async def test_every_viewer_on_either_replica_gets_the_same_frames(
     held = await balanced(redis_server, 2)
     assert sorted(len(worker_of(w, held)) for w in workers) == [2, 2]
 
-    async with aiohttp.ClientSession() as http, http.get(r2.base + "/metrics") as resp:
-        metrics = await resp.text()
+    async with aiohttp.ClientSession() as http:
+        async with http.get(r2.base + "/metrics") as resp:
+            metrics = await resp.text()
+        # The newest raw joint values travel with the workers' status records (once a second).
+        async with asyncio.timeout(START_TIMEOUT_S):
+            while True:
+                async with http.get(r1.base + "/api/robots") as resp:
+                    robots = await resp.json()
+                if all(j["value"] is not None for r in robots for j in r["joints"]):
+                    break
+                await asyncio.sleep(0.2)
     for source in SOURCES:  # a replica's metrics come from what the workers publish
         assert f'linkview_source_live{{source="{source}"}} 1.0' in metrics
 

@@ -42,7 +42,7 @@ async def test_tokens_really_expire() -> None:
 async def test_browse_metadata_and_commands() -> None:
     async with running() as mock, client(mock.url) as c:
         # "datalayer" holds the data layer's own nodes, as on a device.
-        assert await c.browse("") == ["datalayer", "motion", "plc"]
+        assert await c.browse("") == ["datalayer", "framework", "motion", "plc"]
         assert await c.browse("motion/grp") == ["iiwa", "kin12", "pos"]
         assert "pos-abs" in await c.browse("motion/axs/kin12_a0/cmd")
         meta = await c.metadata("motion/axs/kin12_a0/cmd/pos-abs")
@@ -128,7 +128,7 @@ async def test_axes_at_their_own_nodes_are_served_everywhere() -> None:
     machine = Machine(groups=[AxisGroup("r1", axes, ((0.0, 0.0), (1.5, 300.0)))])
     nodes = [lift, "motion/axs/j2/state/values/actual/pos"]
     async with running(build_app(machine=machine)) as mock, client(mock.url) as c:
-        assert await c.browse("") == ["datalayer", "motion", "plc", "robots"]
+        assert await c.browse("") == ["datalayer", "framework", "motion", "plc", "robots"]
         assert (await c.metadata(lift))["unit"] == "rad"
         assert isinstance(await c.read_number(lift), float)
         read = await c.bulk_read(nodes)

@@ -98,7 +98,7 @@ def test_a_new_command_during_the_return_starts_from_where_the_group_is() -> Non
 
 
 def test_axes_in_any_unit_and_at_any_node_are_served() -> None:
-    from server.mock_ctrlx import UNITS, AxisGroup, NodeTree, SimAxis
+    from server.mock_ctrlx import UNITS, AxisGroup, NodeTree, SimAxis, Snapshot
 
     axes = (
         SimAxis("j1", "rad", 1.0, 4.0, -3.0, 3.0, node="plc/app/Application/sym/PLC_PRG/rJ1"),
@@ -114,7 +114,7 @@ def test_axes_in_any_unit_and_at_any_node_are_served() -> None:
     ]
     positions = machine.snapshot(2.0)
     for axis in axes:
-        assert tree.read(axis.position_node, positions) == {
+        assert tree.read(axis.position_node, Snapshot(machine, 2.0)) == {
             "type": "double",
             "value": positions[axis.name],
         }

@@ -94,3 +94,43 @@ def test_protocol_1_frames_match_their_model() -> None:
 def test_decoding_refuses_what_is_not_a_frames_message(bad: bytes) -> None:
     with pytest.raises((ValueError, struct.error)):
         decode_frames(bad)
+
+
+def test_setpoints_travel_beside_the_actual_pose_in_both_protocols() -> None:
+    kin12, iiwa, _ = demo_cell().robots
+    q, q_set = np.array([5.0, 40.0, -10.0, -60.0, 20.0, 30.0, 0.0]), np.full(7, 20.0)
+    frame = compute_frame(iiwa, RobotSample(1, 1.7e9, q, setpoints=q_set))
+    alone = compute_frame(iiwa, RobotSample(1, 1.7e9, q_set))
+    assert frame.setpoint is not None
+    # The batch of two is the same as two separate computations.
+    np.testing.assert_allclose(frame.setpoint.links, alone.links, atol=1e-12)
+    np.testing.assert_allclose(frame.setpoint.tcp, alone.tcp, atol=1e-12)
+    np.testing.assert_allclose(frame.links, compute_frame(iiwa, RobotSample(1, 1.7e9, q)).links)
+    got = decode_frames(encode_binary([(1, frame)], 1, 1.7e9, 1.7e9)).robots[0]
+    assert got.ok and got.setpoint is not None
+    np.testing.assert_allclose(got.setpoint.joints, np.radians(q_set), rtol=1e-6)
+    np.testing.assert_allclose(got.setpoint.links, alone.links, atol=1e-6)
+    np.testing.assert_allclose(got.setpoint.tcp, alone.tcp, atol=1e-6)
+    message = Frame.model_validate(orjson.loads(encode_json(frame, 1.7e9)))
+    assert message.setpoint is not None
+    assert message.setpoint.joints == pytest.approx(np.radians(q_set).tolist())
+    # An unreachable setpoint costs the ghost, never the actual pose.
+    bad = compute_frame(
+        kin12, RobotSample(1, 1.7e9, np.zeros(2), setpoints=np.array([90.0, -180.0]))
+    )
+    assert bad.ok and bad.setpoint is None
+
+
+def test_robots_without_setpoints_cost_nothing_extra() -> None:
+    frames = frames_for([np.zeros(2), np.zeros(7), np.zeros(2)], [None, None, None])
+    without = encode_binary(frames, 1, 1.7e9, 1.7e9)
+    robots = demo_cell().robots
+    with_setpoint = [
+        (0, compute_frame(robots[0], RobotSample(7, 1.7e9, np.zeros(2), setpoints=np.ones(2)))),
+        *frames[1:],
+    ]
+    data = encode_binary(with_setpoint, 1, 1.7e9, 1.7e9)
+    # Exactly one robot's joints, links and TCP more: nothing for the other two.
+    extra = 4 * (2 + 7 * len(robots[0].link_names) + 7)
+    assert len(data) == len(without) + extra
+    assert "setpoint" not in orjson.loads(encode_json(frames[1][1], 1.7e9))

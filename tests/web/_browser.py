@@ -166,12 +166,13 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 
 
 @contextmanager
-def mock_process(port: int, log: Path) -> Iterator[str]:
-    """``python -m server.mock_ctrlx`` on ``port`` until the block ends; yields its URL."""
+def mock_process(port: int, log: Path, *args: str) -> Iterator[str]:
+    """``python -m server.mock_ctrlx`` on ``port`` (plus ``args``) until the block ends; its URL."""
     url = f"http://127.0.0.1:{port}"
+    command = [sys.executable, "-m", "server.mock_ctrlx", "--host", "127.0.0.1"]
     with log.open("ab") as out:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "server.mock_ctrlx", "--host", "127.0.0.1", "--port", str(port)],
+            [*command, "--port", str(port), *args],
             cwd=ROOT,
             stdout=out,
             stderr=subprocess.STDOUT,

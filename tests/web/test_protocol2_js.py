@@ -43,7 +43,8 @@ const out = JSON.parse(input).map((b64) => {
     return { isFrames: isFrames(backing.slice(3)), seq: m.seq, t_source: m.t_source,
       t_sent: m.t_sent, robots: m.robots.map((r) => ({ robot_index: r.robot_index, ok: r.ok,
         joints: Array.from(r.joints), links: Array.from(r.links), tcp: Array.from(r.tcp),
-        error: r.error })) };
+        error: r.error, setpoint: r.setpoint && { joints: Array.from(r.setpoint.joints),
+          links: Array.from(r.setpoint.links), tcp: Array.from(r.setpoint.tcp) } })) };
   } catch (err) {
     return { error: String(err.message) };
   }
@@ -84,6 +85,13 @@ def assert_same(data: bytes, js: dict[str, Any]) -> None:
         assert got["joints"] == want.joints.astype(np.float64).tolist()
         assert got["links"] == want.links.reshape(-1).astype(np.float64).tolist()
         assert got["tcp"] == want.tcp.astype(np.float64).tolist()
+        if want.setpoint is None:
+            assert got["setpoint"] is None
+        else:
+            sp = got["setpoint"]
+            assert sp["joints"] == want.setpoint.joints.astype(np.float64).tolist()
+            assert sp["links"] == want.setpoint.links.reshape(-1).astype(np.float64).tolist()
+            assert sp["tcp"] == want.setpoint.tcp.astype(np.float64).tolist()
 
 
 def encoded_samples(rng: np.random.Generator, count: int) -> list[bytes]:
@@ -169,3 +177,23 @@ def test_what_python_refuses_javascript_refuses() -> None:
             decode_frames(data)
     for data, js in zip(BAD, decode_in_node(BAD), strict=True):
         assert "error" in js and js["error"], (data, js)
+
+
+def test_setpoints_after_an_unaligned_error_and_beside_robots_without() -> None:
+    cell = demo_cell()
+    kin12, iiwa, positioner = cell.robots
+    both = RobotSample(seq=3, t_source=1.7e9, values=np.full(7, 10.0), setpoints=np.full(7, 12.5))
+    failed = RobotSample(seq=3, t_source=1.7e9, values=None, error="Ärger", setpoints=np.zeros(2))
+    plain = RobotSample(seq=3, t_source=1.7e9, values=np.array([5.0, 7.0]))
+    frames = [
+        (2, compute_frame(positioner, failed)),  # no poses: no setpoint either
+        (1, compute_frame(iiwa, both)),
+        (0, compute_frame(kin12, plain)),
+    ]
+    data = encode_binary(frames, 9, 1.7e9, 1.7e9 + 0.01)
+    (js,) = decode_in_node([data])
+    assert_same(data, js)
+    first, second, third = js["robots"]
+    assert first["setpoint"] is None and third["setpoint"] is None
+    assert second["setpoint"]["joints"] == pytest.approx([np.radians(12.5)] * 7)
+    assert second["setpoint"]["links"] != second["links"]
