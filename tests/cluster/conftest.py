@@ -29,7 +29,8 @@ def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
 @pytest.fixture
 def cell_file(tmp_path: Path) -> Path:
     """Four sources (embedded mocks), one Type 12 mechanism on each."""
-    path = tmp_path / "cell.toml"
+    path = tmp_path / "cell" / "cell.toml"  # a folder of its own: every role watches it
+    path.parent.mkdir()
     path.write_text(cell_text(4))
     return path
 
