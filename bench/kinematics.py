@@ -69,8 +69,10 @@ def verdict(met: bool, shortfall: str, why: str) -> str:
 def rtb_iiwa() -> rtb.DHRobot:
     robot = iiwa7()
     return rtb.DHRobot(
-        [rtb.RevoluteDH(d=d, a=a, alpha=al)
-         for d, a, al in zip(robot.d, robot.a, robot.alpha, strict=True)]
+        [
+            rtb.RevoluteDH(d=d, a=a, alpha=al)
+            for d, a, al in zip(robot.d, robot.a, robot.alpha, strict=True)
+        ]
     )
 
 
@@ -101,13 +103,18 @@ def main() -> None:
 
     five_bar = Type12()
     q12 = rng.uniform(-0.8, 0.8, (BATCH, 2))
-    type12_rate = BATCH / statistics.median(seconds(lambda: five_bar.forward(q12))
-                                            for _ in range(repeats))
+    type12_rate = BATCH / statistics.median(
+        seconds(lambda: five_bar.forward(q12)) for _ in range(repeats)
+    )
 
     q_ik = q[:IK_BATCH]
     poses, _ = robot.forward(q_ik)
-    ik_all_us = 1e6 / IK_BATCH * statistics.median(
-        seconds(lambda: robot.inverse_all(poses, q_ik[:, 2])) for _ in range(repeats)
+    ik_all_us = (
+        1e6
+        / IK_BATCH
+        * statistics.median(
+            seconds(lambda: robot.inverse_all(poses, q_ik[:, 2])) for _ in range(repeats)
+        )
     )
 
     chain = DHChain(robot.d, robot.a, robot.alpha, limits=robot.limits)  # plain numerical inverse
@@ -129,24 +136,52 @@ def main() -> None:
 
     header = ["figure", "measured", "floor", "met?"]
     rows = [
-        ["roboticstoolbox `ETS.eval`, iiwa 7 flange only, batch 100 000",
-         f"{rate_rtb / 1e6:.2f} M configs/s", "(reference)", ""],
-        ["7-axis FK, every link frame (8), batch 100 000",
-         f"{rate_ours / 1e6:.2f} M configs/s = {ratio:.2f} x rtb", ">= 2 x rtb",
-         verdict(ratio >= 2.0, f"{ratio:.2f} x, {100 * (1 - ratio / 2):.1f}% short",
-                 WHY["fk_batch"])],
-        ["7-axis FK, one configuration, every link frame", f"{fk_one_us:.1f} us", "<= 10 us",
-         verdict(fk_one_us <= 10.0, f"{fk_one_us - 10:.1f} us over", WHY["fk_one"])],
-        ["Type12 FK, batch 100 000", f"{type12_rate / 1e6:.1f} M configs/s", ">= 10 M/s",
-         verdict(type12_rate >= 10e6, f"{100 * (1 - type12_rate / 10e6):.1f}% short",
-                 WHY["type12"])],
-        ["iiwa analytic IK, all 8 configurations, batch 10 000", f"{ik_all_us:.1f} us/pose",
-         "<= 20 us", verdict(ik_all_us <= 20.0, f"{ik_all_us - 20:.1f} us over", WHY["ik_all"])],
-        ["numerical IK, 200 random reachable targets, random starts: success",
-         f"{success:.1f} %", ">= 99 %",
-         verdict(success >= 99.0, f"{99 - success:.1f} points short", WHY["ik_success"])],
-        ["numerical IK: median time per target", f"{ik_ms:.2f} ms", "<= 1 ms",
-         verdict(ik_ms <= 1.0, f"{ik_ms - 1:.2f} ms over", WHY["ik_time"])],
+        [
+            "roboticstoolbox `ETS.eval`, iiwa 7 flange only, batch 100 000",
+            f"{rate_rtb / 1e6:.2f} M configs/s",
+            "(reference)",
+            "",
+        ],
+        [
+            "7-axis FK, every link frame (8), batch 100 000",
+            f"{rate_ours / 1e6:.2f} M configs/s = {ratio:.2f} x rtb",
+            ">= 2 x rtb",
+            verdict(
+                ratio >= 2.0, f"{ratio:.2f} x, {100 * (1 - ratio / 2):.1f}% short", WHY["fk_batch"]
+            ),
+        ],
+        [
+            "7-axis FK, one configuration, every link frame",
+            f"{fk_one_us:.1f} us",
+            "<= 10 us",
+            verdict(fk_one_us <= 10.0, f"{fk_one_us - 10:.1f} us over", WHY["fk_one"]),
+        ],
+        [
+            "Type12 FK, batch 100 000",
+            f"{type12_rate / 1e6:.1f} M configs/s",
+            ">= 10 M/s",
+            verdict(
+                type12_rate >= 10e6, f"{100 * (1 - type12_rate / 10e6):.1f}% short", WHY["type12"]
+            ),
+        ],
+        [
+            "iiwa analytic IK, all 8 configurations, batch 10 000",
+            f"{ik_all_us:.1f} us/pose",
+            "<= 20 us",
+            verdict(ik_all_us <= 20.0, f"{ik_all_us - 20:.1f} us over", WHY["ik_all"]),
+        ],
+        [
+            "numerical IK, 200 random reachable targets, random starts: success",
+            f"{success:.1f} %",
+            ">= 99 %",
+            verdict(success >= 99.0, f"{99 - success:.1f} points short", WHY["ik_success"]),
+        ],
+        [
+            "numerical IK: median time per target",
+            f"{ik_ms:.2f} ms",
+            "<= 1 ms",
+            verdict(ik_ms <= 1.0, f"{ik_ms - 1:.2f} ms over", WHY["ik_time"]),
+        ],
     ]
     notes = (
         f"Median of {repeats} repeats (numerical IK: median over targets of 3 calls each). "

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import asyncio
+import contextlib
+import functools
 import ipaddress
 import logging
+import os
 import socket
 import sys
 from collections.abc import Callable
@@ -14,9 +18,10 @@ import uvicorn
 from pydantic import ValidationError
 
 from .cell import CellError, load_cell
+from .cluster import broker_settings, run_worker
 from .config import Settings
 from .logs import setup_logging
-from .runtime.startup import configured_cell
+from .runtime.startup import configured_cell, source_defaults
 from .text import plural
 from .web import create_app
 from .web.listen import ListenError, browser_urls, listen
@@ -25,15 +30,25 @@ from .web.serve import server_config
 log = logging.getLogger("server")
 
 
-def parse_settings(argv: list[str] | None = None) -> Settings:
-    """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags."""
+def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Settings:
+    """Settings from ``LINKVIEW_*`` variables, overridden by command-line flags.
+
+    ``worker``: the flags of ``python -m server acquire`` (no web server's).
+    """
     parser = argparse.ArgumentParser(
-        prog="python -m server",
-        description="Serve the live 3D view. `python -m server check FILE` checks a cell file; "
-        "`python -m server discover URL` writes one for a controller.",
+        prog="python -m server acquire" if worker else "python -m server",
+        description=ACQUIRE_HELP
+        if worker
+        else "Serve the live 3D view. `python -m server check FILE` checks a cell file; "
+        "`python -m server discover URL` writes one for a controller; "
+        "`python -m server acquire` runs an acquisition worker of a cluster.",
     )
-    parser.add_argument("--host", help="address to bind (default 127.0.0.1)")
-    parser.add_argument("--port", type=int, help="port to bind (default 8000)")
+    parser.set_defaults(host=None, port=None, viewer_token=None, allow_origin=None)
+    parser.set_defaults(max_viewers=None)
+    web = parser.add_argument_group("web server") if not worker else None
+    if web is not None:
+        web.add_argument("--host", help="address to bind (default 127.0.0.1)")
+        web.add_argument("--port", type=int, help="port to bind (default 8000)")
     parser.add_argument(
         "--cell", metavar="FILE", help="the cell file (TOML, docs/cell.md; default: the demo cell)"
     )
@@ -43,18 +58,19 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         default=None,
         help="let the page move robots of real controllers (embedded mocks always may)",
     )
-    parser.add_argument(
-        "--viewer-token",
-        metavar="SECRET",
-        help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
-    )
-    parser.add_argument(
-        "--allow-origin",
-        metavar="URL",
-        action="append",
-        help="also let pages from this origin open the stream (repeatable)",
-    )
-    parser.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
+    if web is not None:
+        web.add_argument(
+            "--viewer-token",
+            metavar="SECRET",
+            help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
+        )
+        web.add_argument(
+            "--allow-origin",
+            metavar="URL",
+            action="append",
+            help="also let pages from this origin open the stream (repeatable)",
+        )
+        web.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
     parser.add_argument(
         "--ctrlx", metavar="URL", help="controller URL for a one-source cell (default: its own)"
     )
@@ -89,6 +105,13 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
     look_back.add_argument(
         "--foxglove", type=int, metavar="PORT", help="serve the data live to Foxglove on PORT"
     )
+    parser.add_argument(
+        "--broker",
+        metavar="URL",
+        required=worker and "LINKVIEW_BROKER" not in os.environ,
+        help="redis://HOST:PORT/DB: share the work with other processes through this Redis "
+        "server (docs/cluster.md)",
+    )
     args = parser.parse_args(argv)
     overrides = {
         "host": args.host,
@@ -107,6 +130,7 @@ def parse_settings(argv: list[str] | None = None) -> Settings:
         "record": args.record,
         "replay": args.replay,
         "foxglove_port": args.foxglove,
+        "broker": args.broker,
     }
     try:
         return Settings(**{k: v for k, v in overrides.items() if v is not None})
@@ -153,6 +177,8 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(check(argv[1:]))
     if argv[:1] == ["discover"]:
         sys.exit(discover(argv[1:]))
+    if argv[:1] == ["acquire"]:
+        sys.exit(acquire(argv[1:]))
     settings = parse_settings(argv)
     setup_logging()
     try:
@@ -166,7 +192,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"linkview: {exc}", file=sys.stderr)
         sys.exit(1)
     port = int(sockets[0].getsockname()[1])
-    if settings.viewer_token is None and not is_loopback(settings.host):
+    if not settings.viewer_token and not is_loopback(settings.host):
         log.warning(
             "listening on %s without a viewer token: anyone who can reach port %d can watch "
             "this cell (and move its simulated robots); set --viewer-token or "
@@ -187,6 +213,8 @@ def main(argv: list[str] | None = None) -> None:
         s.url or (f"{s.name} (replay of {s.replay})" if s.replay else f"{s.name} (embedded mock)")
         for s in cell.sources
     )
+    if settings.broker is not None:  # a web replica: the workers follow the sources
+        where = f"the acquisition workers of {settings.broker}"
     urls = browser_urls(settings.host, port)
     here = urls[0] if len(urls) == 1 else f"{urls[0]} here, or {' or '.join(urls[1:])} from others"
 
@@ -207,6 +235,31 @@ class AnnouncingServer(uvicorn.Server):
         await super().startup(sockets)
         if self.started:
             self._on_started()
+
+
+ACQUIRE_HELP = (
+    "Run an acquisition worker of a cluster: follow the sources of the cell this worker holds "
+    "leases for in the broker, and publish their frames there for the web replicas "
+    "(python -m server --broker URL)."
+)
+
+
+def acquire(argv: list[str]) -> int:
+    """Run an acquisition worker until interrupted; the exit status."""
+    settings = parse_settings(argv, worker=True)
+    broker = broker_settings(settings)
+    if broker is None:  # parse_settings requires one; this tells mypy
+        return 2
+    setup_logging()
+    try:
+        cell = configured_cell(settings)
+    except CellError as exc:
+        print(f"linkview: cannot start with this cell:\n{exc}", file=sys.stderr)
+        return 2
+    load = functools.partial(configured_cell, settings, cell.path)
+    with contextlib.suppress(KeyboardInterrupt):
+        asyncio.run(run_worker(cell, source_defaults(settings), broker, load))
+    return 0
 
 
 def is_loopback(host: str) -> bool:

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 from typing import Literal
+from urllib.parse import urlsplit
 
-from pydantic import Field, SecretStr, field_validator
+from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from .ctrlx import check_base_url, client_ssl
@@ -58,6 +59,30 @@ class Settings(BaseSettings):
     """An MCAP recording to serve as if live (with --cell: the cell to replay it with)."""
     foxglove_port: int | None = Field(None, ge=0, le=65535)
     """Serve the same data live over Foxglove's WebSocket protocol on this port (same host)."""
+    # A cluster (docs/cluster.md).
+    broker: str | None = None
+    """``redis://HOST:PORT/DB``: run as one role of a cluster sharing this Redis server."""
+    broker_password: SecretStr | None = None
+    broker_lease_s: float = Field(1.2, ge=0.2, le=60.0)
+    """A worker that stops renewing its lease loses its sources to another after this long."""
+
+    @model_validator(mode="after")
+    def _one_process_only(self) -> Settings:
+        # The look-back features read the history the acquisition feeds in the same process;
+        # a replica has no acquisition, and its history stays empty (docs/cluster.md).
+        if self.broker is not None:
+            given = [
+                flag
+                for flag, value in (
+                    ("--record", self.record),
+                    ("--replay", self.replay),
+                    ("--foxglove", self.foxglove_port),
+                )
+                if value is not None
+            ]
+            if given:
+                raise ValueError(f"{', '.join(given)} run in one process, not with --broker yet")
+        return self
 
     @field_validator("ctrlx_url")
     @classmethod
@@ -66,6 +91,25 @@ class Settings(BaseSettings):
         if url is not None:
             check_base_url(url)
         return url
+
+    @field_validator("broker")
+    @classmethod
+    def _broker_url(cls, url: str | None) -> str | None:
+        # The password has its own variable: the URL is shown in logs and health.
+        if url is None:
+            return None
+        parts = urlsplit(url.strip())
+        if parts.username or parts.password:
+            raise ValueError("put the broker's password in LINKVIEW_BROKER_PASSWORD, not the URL")
+        if parts.scheme not in ("redis", "rediss") or not parts.hostname:
+            raise ValueError(f"broker URL {url!r}: use redis://HOST:PORT/DB")
+        try:
+            parts.port  # noqa: B018 (only parsing it validates it)
+        except ValueError:
+            raise ValueError(f"broker URL {url!r} has an invalid port") from None
+        if parts.path.strip("/") and not parts.path.strip("/").isdigit():
+            raise ValueError(f"broker URL {url!r}: the path is the database number, e.g. /0")
+        return url.strip()
 
     @field_validator("ctrlx_ca")
     @classmethod

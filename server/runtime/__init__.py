@@ -16,11 +16,11 @@ from ..cell import Cell, Robot
 from ..ctrlx import DataLayerError
 from ..history import History
 from ..stream import PROTOCOL_VERSIONS, Hub, Message, SourceHealth, cell_message, hello_message
-from .source import RunningSource, SourceDefaults, fingerprint, start_source
+from .source import RunningSource, SourceDefaults, fingerprint, may_command, start_source
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MoveError", "Runtime", "SourceDefaults"]
+__all__ = ["MoveError", "Runtime", "SourceDefaults", "may_command", "move_target"]
 
 
 class MoveError(ValueError):
@@ -29,6 +29,22 @@ class MoveError(ValueError):
     def __init__(self, status: int, reason: str) -> None:
         super().__init__(reason)
         self.status = status
+
+
+def move_target(robot: Robot, q: list[float]) -> list[float]:
+    """Joints ``q`` (rad or m, hello order) as ``robot``'s nodes take them; MoveError if unfit."""
+    target = np.asarray(q, dtype=np.float64)
+    if target.shape != (len(robot.joints),) or not np.isfinite(target).all():
+        raise MoveError(422, f"{robot.name} needs {len(robot.joints)} finite joint values")
+    outside = [
+        j.name
+        for j, value in zip(robot.joints, target, strict=True)
+        if j.limits is not None and not j.limits[0] <= value <= j.limits[1]
+    ]
+    if outside:
+        raise MoveError(422, f"outside the joint limits: {', '.join(outside)}")
+    values: list[float] = robot.from_si(target).tolist()
+    return values
 
 
 @dataclass
@@ -117,9 +133,7 @@ class Runtime:
     def commandable(self, robot: Robot) -> bool:
         """Whether moves may be sent for ``robot``: embedded mock, or allowed by flag or cell."""
         source = self.sources.get(robot.source)
-        if source is None or source.config.replay is not None:  # a recording cannot be moved
-            return False
-        return source.commandable or self.defaults.allow_commands
+        return source is not None and may_command(source.config, self.defaults.allow_commands)
 
     async def move(self, robot: Robot, q: list[float]) -> None:
         """Command a synchronised move of ``robot`` to joints ``q`` (rad or m, hello order)."""
@@ -128,23 +142,17 @@ class Runtime:
                 403,
                 f"{robot.name} is driven by a controller; start with --allow-commands to move it",
             )
-        target = np.asarray(q, dtype=np.float64)
-        if target.shape != (len(robot.joints),) or not np.isfinite(target).all():
-            raise MoveError(422, f"{robot.name} needs {len(robot.joints)} finite joint values")
-        outside = [
-            j.name
-            for j, value in zip(robot.joints, target, strict=True)
-            if j.limits is not None and not j.limits[0] <= value <= j.limits[1]
-        ]
-        if outside:
-            raise MoveError(422, f"outside the joint limits: {', '.join(outside)}")
-        values = robot.from_si(target).tolist()
+        values = move_target(robot, q)
         client = self.sources[robot.source].client
         try:
             await client.write(robot.command_node, "object", {"axsPos": values})
         except DataLayerError as exc:
             raise MoveError(502, f"the data layer refused the move: {exc}") from exc
         log.info("robot %s: move to %s commanded", robot.name, np.round(values, 3).tolist())
+
+    def report(self) -> dict[str, object]:
+        """What this runtime adds to /api/health (a cluster replica: its message broker)."""
+        return {}
 
     @property
     def _path(self) -> str | None:

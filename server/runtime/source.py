@@ -50,7 +50,7 @@ class RunningSource:
     @property
     def commandable(self) -> bool:
         """Whether the page may move this source's robots: a mock, or allowed explicitly."""
-        return self.mock is not None or self.config.allow_commands
+        return may_command(self.config, False)
 
     def begin(self) -> None:
         """Start the acquisition task (once the viewers know the cell it belongs to)."""
@@ -65,6 +65,16 @@ class RunningSource:
         await self.client.close()
         if self.mock is not None:
             await self.mock.cleanup()
+
+
+def may_command(config: Source, allow_commands: bool) -> bool:
+    """Whether moves may be sent to ``config``: an embedded mock, or allowed by cell or flag.
+
+    A recording being replayed cannot be moved.
+    """
+    if config.replay is not None:
+        return False
+    return config.url is None or config.allow_commands or allow_commands
 
 
 def fingerprint(config: Source, robots: list[Robot]) -> object:

@@ -15,6 +15,7 @@ from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from ..cell import Cell
+from ..cluster import Replica, broker_settings
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
 from ..paths import STATIC_DIR
@@ -38,7 +39,11 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         start = configured_cell(settings) if cell is None else with_controller(cell, settings)
-        runtime = await Runtime.start(start, source_defaults(settings))
+        broker = broker_settings(settings)
+        if broker is None:
+            runtime = await Runtime.start(start, source_defaults(settings))
+        else:  # a replica of a cluster: its frames come through the broker
+            runtime = await Replica.open(start, source_defaults(settings), broker)
         app.state.runtime = runtime
         stop = asyncio.Event()
         watcher = None

@@ -58,17 +58,19 @@ class RuntimeCollector(Collector):
         kinematics = _histogram(
             "linkview_kinematics_seconds", "Pose computation per sample", ["source"]
         )
+        for source_health in runtime.healths():  # a cluster replica's too: from its broker
+            name = source_health.name
+            for robot, health in source_health.robots.items():
+                published.add_metric([robot], health.frames)
+            sample_age = source_health.age()
+            if sample_age is not None:
+                age.add_metric([name], sample_age)
+            live.add_metric([name], float(source_health.live))
         for name, source in runtime.sources.items():
             acquisition = source.acquisition
-            for robot, health in source.health.robots.items():
-                published.add_metric([robot], health.frames)
             requests.add_metric([name], source.client.traffic.requests)
             errors.add_metric([name], acquisition.failures)
             logins.add_metric([name], source.client.tokens.logins)
-            sample_age = source.health.age()
-            if sample_age is not None:
-                age.add_metric([name], sample_age)
-            live.add_metric([name], float(source.health.live))
             _add(kinematics, [name], acquisition.kinematics_time)
         yield from (published, requests, errors, logins, age, live, kinematics)
         held = GaugeMetricFamily(

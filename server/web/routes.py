@@ -40,11 +40,12 @@ async def mesh(robot: str, link: int, request: Request) -> FileResponse:
 async def robots(request: Request) -> list[dict[str, Any]]:
     """Every robot: joints with their nodes, mapping, limits and newest raw value; links, source."""
     runtime = runtime_of(request)
+    healths = {source.name: source for source in runtime.healths()}  # a replica's too
     out = []
     for robot in runtime.robots:
         info = robot.info(runtime.commandable(robot)).model_dump()
-        source = runtime.sources.get(robot.source)
-        state = None if source is None else source.health.robots.get(robot.name)
+        source = healths.get(robot.source)
+        state = None if source is None else source.robots.get(robot.name)
         raw = None if state is None else state.values
         for k, (joint, entry) in enumerate(zip(robot.joints, info["joints"], strict=True)):
             # As read from the node (its unit), and what the mapping makes of it.
@@ -63,7 +64,8 @@ async def health(request: Request) -> JSONResponse:
     runtime = runtime_of(request)
     sources: list[dict[str, Any]] = []
     robots: list[dict[str, Any]] = []
-    for source in runtime.healths():
+    by_name = {source.name: source for source in runtime.healths()}
+    for source in by_name.values():
         sources.append(
             {
                 **source.status().model_dump(),
@@ -74,7 +76,7 @@ async def health(request: Request) -> JSONResponse:
             }
         )
     for robot in runtime.robots:
-        source_health = runtime.sources[robot.source].health
+        source_health = by_name[robot.source]
         state = source_health.robots.get(robot.name)
         robots.append(
             {
@@ -99,5 +101,6 @@ async def health(request: Request) -> JSONResponse:
         "robots": robots,
         "viewers": runtime.hub.viewer_count,
         "dropped_frames": runtime.hub.dropped,
+        **runtime.report(),
     }
     return JSONResponse(body, status_code=200 if any(live) else 503)

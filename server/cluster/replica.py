@@ -1,0 +1,309 @@
+"""``python -m server --broker URL``: a web replica of a cluster.
+
+A replica follows no controller. It feeds the frames and status the workers
+publish into its own hub, which fans them out to its viewers as one process
+does. Everything a viewer gets is either from the broker (frames, status,
+robot health) or from the cell file every role reads (hello, cell notice),
+and the session id is derived from the cell: replicas are interchangeable, and
+a viewer may reconnect to any of them and carry on.
+
+Each source's state is judged on the replica's own clock from the frames
+it receives, so a source whose worker died shows as stale here, and every
+source shows the broker's error while the broker is unreachable.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hashlib
+import logging
+import time
+from typing import Any
+
+import numpy as np
+import orjson
+from redis.asyncio import Redis
+from redis.exceptions import RedisError
+
+from ..cell import Cell, Robot
+from ..runtime import MoveError, Runtime, SourceDefaults, may_command, move_target
+from ..stream import Message, RobotHealth, SourceHealth
+from . import envelope
+from .broker import (
+    FRAMES,
+    RETRY_MAX_S,
+    RETRY_MIN_S,
+    WANTS_JSON,
+    BrokerSettings,
+    BrokerState,
+    command_channel,
+    connect,
+    health_key,
+    lease_key,
+    member_id,
+    reply_channel,
+    text,
+)
+
+log = logging.getLogger(__name__)
+
+WATCH_S = 0.1
+"""How often each source's state is checked (stale) on the replica's clock."""
+STATUS_EVERY_S = 1.0
+"""Each source's status is sent to viewers at least this often (a live sample age)."""
+POLL_S = 0.5
+"""How often the replica reads who holds each source and says whether it has JSON viewers."""
+COMMAND_TIMEOUT_S = 5.0
+NO_WORKER = "no acquisition worker follows this source (start one: python -m server acquire)"
+WAITING = "waiting for the acquisition worker"
+
+
+def session_of(cell: Cell) -> str:
+    """The same on every replica serving the same cell (however each names the broker)."""
+    infos = [r.info(False).model_dump() for r in cell.robots]
+    return hashlib.sha256(orjson.dumps(infos)).hexdigest()[:16]
+
+
+def robot_health(record: dict[str, Any]) -> RobotHealth:
+    """A robot's health as a worker's status record has it."""
+    values = record["values"]
+    return RobotHealth(
+        ok=bool(record["ok"]),
+        error=record["error"],
+        frames=int(record["frames"]),
+        values=None if values is None else np.asarray(values, dtype=np.float64),
+    )
+
+
+class Replica(Runtime):
+    """A Runtime without sources: its hub is fed from the broker."""
+
+    def __init__(self, cell: Cell, defaults: SourceDefaults, broker: BrokerSettings) -> None:
+        super().__init__(cell, defaults)
+        self.id = member_id("web")
+        self.redis: Redis = connect(broker.url, broker.password, COMMAND_TIMEOUT_S)
+        self.broker = BrokerState(broker.url, f"replica {self.id}")
+        self.holders: dict[str, str | None] = {}
+        """The worker following each source, as last read."""
+        self._health: dict[str, SourceHealth] = {}
+        self._sent: dict[str, tuple[str, float]] = {}
+        """Per source: the state and time of the last status sent to viewers."""
+        self._replies: dict[str, asyncio.Future[tuple[int, str]]] = {}
+        self._tasks: list[asyncio.Task[None]] = []
+
+    @classmethod
+    async def open(cls, cell: Cell, defaults: SourceDefaults, broker: BrokerSettings) -> Replica:
+        """A replica serving ``cell``, listening to the broker (and retrying until it answers)."""
+        replica = cls(cell, defaults, broker)
+        await replica.apply(cell)
+        replica._tasks = [
+            asyncio.create_task(replica._listen(), name="broker:listen"),
+            asyncio.create_task(replica._watch(), name="broker:watch"),
+            asyncio.create_task(replica._poll(), name="broker:poll"),
+        ]
+        return replica
+
+    async def apply(self, cell: Cell) -> None:
+        """Serve ``cell``: hello and the sources' health come from it (no source is started)."""
+        health = {}
+        for source in cell.sources:
+            kept = self._health.get(source.name)
+            if kept is None:
+                url = source.url or "embedded mock"
+                kept = SourceHealth(source.name, url=url, mock=source.url is None)
+                kept.error = WAITING if self.broker.up else self.broker.error
+                kept.state = "connecting" if self.broker.up else "error"
+            kept.period_s = source.period_s or self.defaults.period_s
+            health[source.name] = kept
+        self._health = health
+        self.cell, self.cell_error = cell, None
+        self.session = session_of(cell)
+        self.hub.restart()
+        self._publish_cell()
+        for name in health:
+            self._send_status(name)
+
+    async def stop(self) -> None:
+        """Stop listening; close the broker connection."""
+        for task in self._tasks:
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        await self.redis.aclose()
+
+    def healths(self) -> list[SourceHealth]:
+        """Every source's health as this replica sees it, in cell order."""
+        return list(self._health.values())
+
+    def commandable(self, robot: Robot) -> bool:
+        """As in one process; the worker holding the source checks it again."""
+        source = next((s for s in self.cell.sources if s.name == robot.source), None)
+        return source is not None and may_command(source, self.defaults.allow_commands)
+
+    def report(self) -> dict[str, object]:
+        """The broker's state, and which worker follows each source."""
+        return {"broker": {**self.broker.report(), "workers": dict(self.holders)}}
+
+    async def move(self, robot: Robot, q: list[float]) -> None:
+        """Route the move to the worker that holds ``robot``'s source; its answer is ours."""
+        if not self.commandable(robot):
+            raise MoveError(
+                403,
+                f"{robot.name} is driven by a controller; start with --allow-commands to move it",
+            )
+        move_target(robot, q)  # refuse what no worker would take without asking one
+        ident = member_id("move")
+        answer: asyncio.Future[tuple[int, str]] = asyncio.get_running_loop().create_future()
+        self._replies[ident] = answer
+        try:
+            holder = await self.redis.get(lease_key(robot.source))
+            if holder is None:
+                raise MoveError(503, f"source {robot.source}: {NO_WORKER}")
+            command = {"id": ident, "robot": robot.name, "joints": q, "reply": self._reply}
+            if not await self.redis.publish(command_channel(text(holder)), orjson.dumps(command)):
+                raise MoveError(503, f"the worker following {robot.source} has gone")
+            async with asyncio.timeout(COMMAND_TIMEOUT_S):
+                status, detail = await answer
+        except (RedisError, OSError) as exc:
+            raise MoveError(503, f"message broker unreachable: {exc}") from exc
+        except TimeoutError:
+            raise MoveError(504, f"the worker following {robot.source} did not answer") from None
+        finally:
+            self._replies.pop(ident, None)
+        if status != 202:
+            raise MoveError(status, detail)
+
+    @property
+    def _reply(self) -> str:
+        return reply_channel(self.id)
+
+    async def _listen(self) -> None:
+        """Receive batches (and answers to moves) for as long as the replica runs."""
+        retry = RETRY_MIN_S
+        while True:
+            pubsub = self.redis.pubsub(ignore_subscribe_messages=True)
+            try:
+                await pubsub.subscribe(FRAMES, self._reply)
+                await self._catch_up()
+                retry = RETRY_MIN_S
+                while True:
+                    message = await pubsub.get_message(timeout=1.0)
+                    if message is None or message["type"] != "message":
+                        continue
+                    if message["channel"] == FRAMES.encode():
+                        self._on_batch(message["data"])
+                    else:
+                        self._on_answer(message["data"])
+            except (RedisError, OSError) as exc:
+                self._lost_broker(exc, retry)
+            finally:
+                with contextlib.suppress(RedisError, OSError):
+                    await pubsub.aclose()  # type: ignore[no-untyped-call]
+            await asyncio.sleep(retry)
+            retry = min(retry * 2, RETRY_MAX_S)
+
+    async def _catch_up(self) -> None:
+        """The broker answers: start from the status records it keeps."""
+        names = list(self._health)
+        records = await self.redis.mget([health_key(n) for n in names]) if names else []
+        self._found_broker()
+        for name, record in zip(names, records, strict=True):
+            if record is not None:
+                self._on_record(name, record)
+        for name in names:
+            self._send_status(name)
+
+    def _lost_broker(self, exc: BaseException, retry_s: float) -> None:
+        if self.broker.failed(exc, retry_s):
+            for name, health in self._health.items():
+                health.mark_error(self.broker.error or "message broker unreachable")
+                self._send_status(name)
+
+    def _found_broker(self) -> None:
+        if self.broker.reached():
+            for health in self._health.values():
+                health.state, health.error = "connecting", WAITING
+
+    def _on_batch(self, data: bytes) -> None:
+        try:
+            for key, message, protocol in envelope.unpack(data):
+                kind, _, source = key.partition(":")
+                health = self._health.get(source)
+                if health is None:
+                    continue  # a source of another version of the cell
+                if kind == "status":
+                    assert isinstance(message.payload, str)
+                    self._on_record(source, message.payload)
+                    continue
+                self.hub.publish(key, message, protocol)
+                if health.mark_sample():
+                    self._send_status(source)
+        except (ValueError, AssertionError) as exc:
+            log.warning("%s: dropped a garbled batch: %s", self.id, exc)
+
+    def _on_record(self, source: str, data: bytes | str) -> None:
+        """A worker's status record: robots' health, the source's error, its URL."""
+        health = self._health[source]
+        try:
+            record = orjson.loads(data)
+            status = record["status"]
+            health.url, health.mock = status["url"], status["mock"]
+            health.warning = status["warning"]
+            health.robots = {n: robot_health(r) for n, r in record["robots"].items()}
+            self.holders[source] = record["worker"]
+        except (orjson.JSONDecodeError, KeyError, TypeError) as exc:
+            log.warning("%s: ignored a garbled status of %s: %s", self.id, source, exc)
+            return
+        if status["state"] in ("error", "connecting"):
+            health.state, health.error = status["state"], status["error"]
+        self._send_status(source)
+
+    def _on_answer(self, data: bytes) -> None:
+        try:
+            answer = orjson.loads(data)
+            waiting = self._replies.get(answer["id"])
+            if waiting is not None and not waiting.done():
+                waiting.set_result((int(answer["status"]), str(answer["detail"])))
+        except (orjson.JSONDecodeError, KeyError, TypeError, ValueError):
+            log.warning("%s: ignored a garbled answer to a move", self.id)
+
+    def _send_status(self, source: str) -> None:
+        health = self._health[source]
+        self._sent[source] = (health.current_state(), time.monotonic())
+        self.hub.publish(f"status:{source}", Message(health.status_message()))
+
+    async def _watch(self) -> None:
+        """Send a source's status when its state changes here (stale) and once a second."""
+        while True:
+            await asyncio.sleep(WATCH_S)
+            now = time.monotonic()
+            for name, health in self._health.items():
+                state, at = self._sent.get(name, ("", 0.0))
+                if health.current_state() != state or now - at >= STATUS_EVERY_S:
+                    self._send_status(name)
+
+    async def _poll(self) -> None:
+        """Read who holds each source; tell workers whether JSON frames are wanted."""
+        missing: set[str] = set()
+        while True:
+            await asyncio.sleep(POLL_S)
+            names = list(self._health)
+            try:
+                if self.hub.viewers_of(1):
+                    await self.redis.set(WANTS_JSON, b"1", px=round(6 * POLL_S * 1000))
+                holders = await self.redis.mget([lease_key(n) for n in names]) if names else []
+            except (RedisError, OSError) as exc:  # also when Redis hangs: no error on the listener
+                self._lost_broker(exc, POLL_S)
+                continue
+            self._found_broker()
+            for name, holder in zip(names, holders, strict=True):
+                self.holders[name] = None if holder is None else text(holder)
+                health = self._health[name]
+                if holder is None and name in missing and not health.live:
+                    if health.error != NO_WORKER:
+                        health.mark_error(NO_WORKER)
+                        self._send_status(name)
+                if holder is None:
+                    missing.add(name)
+                else:
+                    missing.discard(name)
