@@ -7,7 +7,7 @@ import logging
 from collections.abc import Callable
 from pathlib import Path
 
-from watchfiles import awatch
+from watchfiles import Change, awatch
 
 from ..cell import Cell, CellError
 from . import Runtime
@@ -21,12 +21,18 @@ async def follow_cell_file(
     """Watch ``path`` until ``stop`` is set; apply each valid version, report each invalid one.
 
     The folder is watched rather than the file: editors often save by
-    writing a new file and renaming it over the old one.
+    writing a new file and renaming it over the old one. Changes to other
+    files there (a log written beside the cell, say) are filtered out before
+    watchfiles logs them, so they neither wake the reload nor flood the log.
     """
     target = path.resolve()
-    async for changes in awatch(target.parent, stop_event=stop, debounce=200, step=50):
-        if not any(Path(changed).resolve() == target for _, changed in changes):
-            continue
+
+    def is_target(_change: Change, changed: str) -> bool:
+        return Path(changed).resolve() == target
+
+    async for _ in awatch(
+        target.parent, watch_filter=is_target, stop_event=stop, debounce=200, step=50
+    ):
         try:
             # Parsing a URDF or converting meshes may take a while: not on the event loop.
             cell = await asyncio.to_thread(load)
