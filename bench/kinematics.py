@@ -30,7 +30,7 @@ import roboticstoolbox as rtb
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from _report import markdown_table, publish  # noqa: E402
+from _report import machine, markdown_table, publish  # noqa: E402
 
 from server.kinematics import DHChain, Type12, iiwa7  # noqa: E402
 
@@ -60,6 +60,14 @@ def seconds(call: Callable[[], object], number: int = 1) -> float:
     for _ in range(number):
         call()
     return (time.perf_counter() - start) / number
+
+
+def numpy_simd() -> str:
+    """numpy's compiled-in SIMD baseline and the extensions it found on this CPU at run time."""
+    simd = np.__config__.CONFIG.get("SIMD Extensions", {})
+    baseline = ", ".join(simd.get("baseline", [])) or "?"
+    found = ", ".join(simd.get("found", [])) or "none"
+    return f"baseline {baseline}, dispatched {found}"
 
 
 def verdict(met: bool, shortfall: str, why: str) -> str:
@@ -145,9 +153,11 @@ def main() -> None:
         [
             "7-axis FK, every link frame (8), batch 100 000",
             f"{rate_ours / 1e6:.2f} M configs/s = {ratio:.2f} x rtb",
-            ">= 2 x rtb",
+            ">= 2.5 x rtb",
             verdict(
-                ratio >= 2.0, f"{ratio:.2f} x, {100 * (1 - ratio / 2):.1f}% short", WHY["fk_batch"]
+                ratio >= 2.5,
+                f"{ratio:.2f} x, {100 * (1 - ratio / 2.5):.1f}% short",
+                WHY["fk_batch"],
             ),
         ],
         [
@@ -187,7 +197,8 @@ def main() -> None:
         f"Median of {repeats} repeats (numerical IK: median over targets of 3 calls each). "
         f"Load average (1 min) {load_before:.2f} before and {load_after:.2f} after: other jobs "
         "share these cores, so the absolute figures move with them; the ratio to "
-        "roboticstoolbox is measured side by side."
+        "roboticstoolbox is measured side by side. "
+        f"CPU {machine()}; numpy {np.__version__}, SIMD {numpy_simd()}."
     )
     table = markdown_table(header, rows)
     publish("bench/kinematics.py", "Kinematics", f"{table}\n\n{notes}\n")
