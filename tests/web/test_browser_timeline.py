@@ -64,7 +64,7 @@ def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str
     page.wait_for_function(
         "([name, q]) => { const r = window.linkview.readout(name);"
         " return r && r.joints.every((v, i) => Math.abs(v - q[i]) < 1e-5); }",
-        [ROBOT, joints],
+        arg=[ROBOT, joints],
         timeout=TIMEOUT_MS,
     )
     shown = page.evaluate(f"window.linkview.readout('{ROBOT}')")
@@ -91,7 +91,7 @@ def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str
     page.wait_for_function(
         "([name, q]) => { const r = window.linkview.readout(name);"
         " return r && r.joints.some((v, i) => Math.abs(v - q[i]) > 1e-3); }",
-        [ROBOT, joints],
+        arg=[ROBOT, joints],
         timeout=TIMEOUT_MS,
     )
     live = page.evaluate("window.linkview.timeline")
