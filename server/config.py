@@ -59,6 +59,8 @@ class Settings(BaseSettings):
     """An MCAP recording to serve as if live (with --cell: the cell to replay it with)."""
     foxglove_port: int | None = Field(None, ge=0, le=65535)
     """Serve the same data live over Foxglove's WebSocket protocol on this port (same host)."""
+    clearance_m: float = Field(0.05, ge=0.0, le=10.0)
+    """Links of different robots closer than this are reported (page toggle); 0: not checked."""
     # A cluster (docs/cluster.md).
     broker: str | None = None
     """``redis://HOST:PORT/DB``: run as one role of a cluster sharing this Redis server."""

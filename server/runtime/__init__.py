@@ -11,6 +11,7 @@ import secrets
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from ..cell import Cell, Robot
 from ..ctrlx import DataLayerError
@@ -129,6 +130,15 @@ class Runtime:
     def healths(self) -> list[SourceHealth]:
         """The health of every source, in cell order."""
         return [s.health for s in self.sources.values()]
+
+    def newest_values(self) -> dict[str, npt.NDArray[np.float64]]:
+        """The joint values (node units) of every robot whose newest sample had poses."""
+        return {
+            name: robot.values
+            for health in self.healths()
+            for name, robot in health.robots.items()
+            if robot.ok and robot.values is not None
+        }
 
     def commandable(self, robot: Robot) -> bool:
         """Whether moves may be sent for ``robot``: embedded mock, or allowed by flag or cell."""

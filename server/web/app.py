@@ -15,6 +15,7 @@ from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from ..cell import Cell
+from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
@@ -51,14 +52,18 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
         if path is not None:
             load = functools.partial(configured_cell, settings, path)
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
-        look_back = await _start_look_back(settings, runtime)
-        app.state.look_back = look_back
+        background = await _start_look_back(settings, runtime)
+        app.state.clearance = None
+        if settings.clearance_m > 0.0:
+            app.state.clearance = ClearanceService(runtime.hub, settings.clearance_m)
+            check = app.state.clearance.run(lambda: runtime.robots, runtime.newest_values)
+            background.append(asyncio.create_task(check, name="clearance"))
         try:
             yield
         finally:
-            for task in look_back:
+            for task in background:
                 task.cancel()
-            await asyncio.gather(*look_back, return_exceptions=True)
+            await asyncio.gather(*background, return_exceptions=True)
             stop.set()
             if watcher is not None:
                 watcher.cancel()

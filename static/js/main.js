@@ -70,6 +70,12 @@ window.linkview = Object.freeze( {
 		return app.following.shown( name );
 
 	},
+	/** The clearance toggle: { on, text, near, highlighted: [[robot, link name], ...] }. */
+	get clearance() {
+
+		return app.clearance.shown();
+
+	},
 	/** The simulation panel: ghosts drawn, which is selected, jog requests sent. */
 	get sim() {
 
