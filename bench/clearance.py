@@ -56,7 +56,8 @@ def run(cell: Cell, seconds: float) -> tuple[list[float], float, str]:
         for near in result.near:
             if near.distance_m < closest:
                 closest = near.distance_m
-                pair = " and ".join(f"{r} {n}" for r, n in zip(near.robots, near.link_names, strict=True))
+                named = zip(near.robots, near.link_names, strict=True)
+                pair = " and ".join(f"{robot} {link}" for robot, link in named)
     return costs, closest, pair
 
 
