@@ -26,7 +26,9 @@ class Settings(BaseSettings):
     viewer_token: SecretStr | None = None
     """Required on the page, /ws and /api/* when set (``?token=`` in a link sets a cookie)."""
     allow_origin: list[str] = []
-    """Origins besides the server's own whose pages may open /ws."""
+    """Origins besides the server's own whose pages may open /ws and send commands."""
+    allow_host: list[str] = []
+    """Host names answered besides loopback ones (and, bound beyond loopback, IP addresses)."""
     max_viewers: int = Field(1000, ge=1)
     """Viewers beyond this many are refused with 503."""
     client_timeout_s: float = Field(10.0, gt=0.0)

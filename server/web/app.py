@@ -19,6 +19,7 @@ from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
+from ..hosts import HostPolicy
 from ..paths import STATIC_DIR
 from ..recording import Recorder
 from ..runtime import Runtime
@@ -26,6 +27,7 @@ from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
 from . import history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
+from .headers import SecurityHeaders
 
 log = logging.getLogger(__name__)
 
@@ -74,8 +76,12 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app = FastAPI(title="linkview", lifespan=lifespan)
     app.state.max_viewers = settings.max_viewers
     token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
-    app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin)
+    hosts = HostPolicy(settings.host, settings.allow_host)
+    app.add_middleware(
+        Gatekeeper, token=token, allowed_origins=settings.allow_origin, hosts=hosts
+    )
     app.add_middleware(LimitBody)
+    app.add_middleware(SecurityHeaders, page=STATIC_DIR / "index.html")
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.include_router(routes.router)
     app.include_router(ws.router)

@@ -16,6 +16,7 @@ from prometheus_client.registry import Collector
 from ..runtime import Runtime
 from ..stream import PROTOCOL_VERSIONS
 from ..stream.buckets import Buckets
+from . import flood, transformation
 from .routes import runtime_of
 
 router = APIRouter()
@@ -90,6 +91,19 @@ class RuntimeCollector(Collector):
         for protocol in PROTOCOL_VERSIONS:
             viewers.add_metric([str(protocol)], hub.viewers_of(protocol))
         yield viewers
+        closed = CounterMetricFamily(
+            "linkview_viewers_closed",
+            "Viewers closed for sending too many messages or not reading (web/flood.py)",
+            labels=["bound"],
+        )
+        for bound in ("messages", "queued"):
+            closed.add_metric([bound], flood.closed[bound])
+        yield closed
+        yield CounterMetricFamily(
+            "linkview_transformations_refused",
+            "fk, ik and move requests answered 503 (too many at once)",
+            value=transformation.running.refused,
+        )
         delay = _histogram(
             "linkview_sample_to_send_seconds", "From the data layer's sample to each send", []
         )

@@ -2,8 +2,11 @@
 
 Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed and
 validated in the threadpool with the kinematics: a large request costs its
-sender time, never the event loop that streams to viewers. Models are strict:
-``"0.1"`` or ``true`` where a number belongs is a 422, not a guess.
+sender time, never the event loop that streams to viewers. At most
+``MAX_RUNNING`` of them run at once; past that they are answered 503 with
+``Retry-After``, since each running one competes with the stream for the
+interpreter. Models are strict: ``"0.1"`` or ``true`` where a number belongs
+is a 422, not a guess.
 """
 
 from __future__ import annotations
@@ -27,6 +30,35 @@ MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
 MAX_LINK_ROWS = 64
 """Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
+MAX_RUNNING = 2
+"""Transformation requests computed at once, per process; the page sends one at a time."""
+RETRY_AFTER_S = 1
+
+
+class _Running:
+    """Counts the transformation requests being computed; refuses those past MAX_RUNNING."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.refused = 0
+
+    def __enter__(self) -> None:
+        if self.count >= MAX_RUNNING:
+            self.refused += 1
+            raise HTTPException(
+                status_code=503,
+                detail=f"busy: {MAX_RUNNING} transformation requests are being computed; "
+                f"try again in {RETRY_AFTER_S} s",
+                headers={"Retry-After": str(RETRY_AFTER_S)},
+            )
+        self.count += 1
+
+    def __exit__(self, *exc: object) -> None:
+        self.count -= 1
+
+
+running = _Running()
+"""This process's transformation requests (one event loop: no lock needed)."""
 
 
 class _Body(BaseModel):
@@ -96,14 +128,16 @@ def _inverse(robot: Robot, raw: bytes) -> dict[str, Any]:
 async def forward(name: str, request: Request) -> dict[str, Any]:
     """TCP pose and roll-pitch-yaw for each joint row (``ForwardRequest``)."""
     robot = _robot(request, name)
-    return await run_in_threadpool(_forward, robot, await request.body())
+    with running:
+        return await run_in_threadpool(_forward, robot, await request.body())
 
 
 @router.post("/{name}/ik")
 async def inverse(name: str, request: Request) -> dict[str, Any]:
     """Joint solutions for a TCP pose (``InverseRequest``); ``best`` is nearest ``joints_ref``."""
     robot = _robot(request, name)
-    return await run_in_threadpool(_inverse, robot, await request.body())
+    with running:
+        return await run_in_threadpool(_inverse, robot, await request.body())
 
 
 @router.post("/{name}/move", status_code=202)
@@ -112,7 +146,8 @@ async def move(name: str, request: Request) -> dict[str, Any]:
     robot = _robot(request, name)
     body = _parse(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
     try:
-        await runtime_of(request).move(robot, body.joints)
+        with running:
+            await runtime_of(request).move(robot, body.joints)
     except MoveError as exc:
         raise HTTPException(status_code=exc.status, detail=str(exc)) from exc
     return {"ok": True, "robot": name, "joints": body.joints}

@@ -1,5 +1,16 @@
 import { App } from './app.js';
 
+// Opened with ?token=: the server has set its cookie by now, which every later request
+// carries. The token leaves the address bar, so it is not in the history, a bookmark
+// or a screenshot of the window.
+const address = new URL( window.location.href );
+if ( address.searchParams.has( 'token' ) ) {
+
+	address.searchParams.delete( 'token' );
+	window.history.replaceState( window.history.state, '', address.pathname + address.search + address.hash );
+
+}
+
 const app = new App();
 app.start();
 
