@@ -29,7 +29,8 @@ def content_security_policy(page: Path) -> str:
     return "; ".join(
         [
             "default-src 'self'",
-            f"script-src 'self' {hashes}".strip(),
+            # WebAssembly (the meshes' decoder) but no eval of JavaScript text.
+            f"script-src 'self' 'wasm-unsafe-eval' {hashes}".strip(),
             "style-src 'self'",
             "img-src 'self' data: blob:",  # textures inside GLB files load as blobs
             "connect-src 'self' blob: data:",

@@ -3,14 +3,17 @@
 Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed and
 validated in the threadpool with the kinematics: a large request costs its
 sender time, never the event loop that streams to viewers. At most
-``MAX_RUNNING`` of them run at once; past that they are answered 503 with
-``Retry-After``, since each running one competes with the stream for the
-interpreter. Models are strict: ``"0.1"`` or ``true`` where a number belongs
-is a 422, not a guess.
+``MAX_RUNNING`` of them run at once and ``MAX_WAITING`` wait for their turn;
+past that they are answered 503 with ``Retry-After``, since each running one
+competes with the stream for the interpreter. Models are strict: ``"0.1"``
+or ``true`` where a number belongs is a 422, not a guess.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+from collections.abc import AsyncIterator
 from typing import Annotated, Any, TypeVar
 
 from fastapi import APIRouter, HTTPException, Request
@@ -31,34 +34,52 @@ MAX_ROWS = 10_000
 MAX_LINK_ROWS = 64
 """Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
 MAX_RUNNING = 2
-"""Transformation requests computed at once, per process; the page sends one at a time."""
+"""Transformation requests computed at once, per process."""
+MAX_WAITING = 8
+"""Requests that may wait for one of those; past that they are refused at once."""
+WAIT_S = 2.0
 RETRY_AFTER_S = 1
 
 
 class _Running:
-    """Counts the transformation requests being computed; refuses those past MAX_RUNNING."""
+    """Lets MAX_RUNNING transformation requests run; a few more wait briefly, the rest get 503."""
 
     def __init__(self) -> None:
-        self.count = 0
+        self._slots: asyncio.Semaphore | None = None  # made in the serving loop
+        self.waiting = 0
         self.refused = 0
 
-    def __enter__(self) -> None:
-        if self.count >= MAX_RUNNING:
-            self.refused += 1
-            raise HTTPException(
-                status_code=503,
-                detail=f"busy: {MAX_RUNNING} transformation requests are being computed; "
-                f"try again in {RETRY_AFTER_S} s",
-                headers={"Retry-After": str(RETRY_AFTER_S)},
-            )
-        self.count += 1
+    @contextlib.asynccontextmanager
+    async def slot(self) -> AsyncIterator[None]:
+        if self._slots is None:
+            self._slots = asyncio.Semaphore(MAX_RUNNING)
+        if self.waiting >= MAX_WAITING:
+            raise self._busy()
+        self.waiting += 1
+        try:
+            async with asyncio.timeout(WAIT_S):
+                await self._slots.acquire()
+        except TimeoutError:
+            raise self._busy() from None
+        finally:
+            self.waiting -= 1
+        try:
+            yield
+        finally:
+            self._slots.release()
 
-    def __exit__(self, *exc: object) -> None:
-        self.count -= 1
+    def _busy(self) -> HTTPException:
+        self.refused += 1
+        return HTTPException(
+            status_code=503,
+            detail=f"busy: {MAX_RUNNING} transformation requests are being computed and "
+            f"{MAX_WAITING} wait; try again in {RETRY_AFTER_S} s",
+            headers={"Retry-After": str(RETRY_AFTER_S)},
+        )
 
 
 running = _Running()
-"""This process's transformation requests (one event loop: no lock needed)."""
+"""This process's transformation requests."""
 
 
 class _Body(BaseModel):
@@ -128,7 +149,7 @@ def _inverse(robot: Robot, raw: bytes) -> dict[str, Any]:
 async def forward(name: str, request: Request) -> dict[str, Any]:
     """TCP pose and roll-pitch-yaw for each joint row (``ForwardRequest``)."""
     robot = _robot(request, name)
-    with running:
+    async with running.slot():
         return await run_in_threadpool(_forward, robot, await request.body())
 
 
@@ -136,7 +157,7 @@ async def forward(name: str, request: Request) -> dict[str, Any]:
 async def inverse(name: str, request: Request) -> dict[str, Any]:
     """Joint solutions for a TCP pose (``InverseRequest``); ``best`` is nearest ``joints_ref``."""
     robot = _robot(request, name)
-    with running:
+    async with running.slot():
         return await run_in_threadpool(_inverse, robot, await request.body())
 
 
@@ -146,7 +167,7 @@ async def move(name: str, request: Request) -> dict[str, Any]:
     robot = _robot(request, name)
     body = _parse(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
     try:
-        with running:
+        async with running.slot():
             await runtime_of(request).move(robot, body.joints)
     except MoveError as exc:
         raise HTTPException(status_code=exc.status, detail=str(exc)) from exc
