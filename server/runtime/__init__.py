@@ -96,7 +96,7 @@ class Runtime:
             running.robots = cell.robots_of(name)
             running.acquisition.set_robots(running.robots, indices)
         if self.sources:  # not the first start: a reload
-            self.history.marks.add("reload", f"cell {self._path or '(built in)'} reloaded")
+            self.history.marks.add("reload", f"cell {self.cell_name or '(built in)'} reloaded")
         self.history.keep_only(wanted)
         self.sources = {s.name: kept[s.name] for s in cell.sources}
         self.cell, self.cell_error = cell, None
@@ -109,8 +109,8 @@ class Runtime:
 
     def reject(self, error: str) -> None:
         """A new version of the cell file is unusable: keep running, say why."""
-        self.cell_error = error
-        self.hub.publish("cell", Message(cell_message(self._path, error)))
+        self.cell_error = self.cell.shown(error)
+        self.hub.publish("cell", Message(cell_message(self.cell_name, error)))
 
     async def stop(self) -> None:
         """Stop every source."""
@@ -165,12 +165,13 @@ class Runtime:
         return {}
 
     @property
-    def _path(self) -> str | None:
-        return None if self.cell.path is None else str(self.cell.path)
+    def cell_name(self) -> str | None:
+        """The cell file as viewers see it: its name, in its own folder."""
+        return None if self.cell.path is None else self.cell.path.name
 
     def _publish_cell(self) -> None:
-        infos = [r.info(self.commandable(r)) for r in self.cell.robots]
+        infos = self.cell.infos(self.commandable)
         for protocol in PROTOCOL_VERSIONS:
             hello = hello_message(infos, self.session, protocol)
             self.hub.publish(f"hello:{protocol}", Message(hello), protocol=protocol)
-        self.hub.publish("cell", Message(cell_message(self._path, self.cell_error)))
+        self.hub.publish("cell", Message(cell_message(self.cell_name, self.cell_error)))
