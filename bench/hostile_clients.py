@@ -93,7 +93,9 @@ def main() -> None:
         f"A protocol-2 viewer's frames messages per second during each attack (median of "
         f"{rounds}), against {quiet:.1f}/s before any attack; load average {load}. "
         "The tests require a third of the quiet rate. Server RSS: growth over the attack "
-        "window (the ping flood's peak is checked by its test).\n\n"
+        "window (the ping flood's peak is checked by its test). The viewer runs in this "
+        "process, the server in its own; the 20 heavy requests come from a third process. "
+        "Chromium is not involved.\n\n"
         + markdown_table(
             ["attack", "frames/s", "share of quiet", "worst", "server RSS MiB (most)", ""], rows
         )
