@@ -23,6 +23,7 @@ from ..hosts import HostPolicy
 from ..paths import STATIC_DIR
 from ..recording import Recorder
 from ..runtime import Runtime
+from ..runtime.loop_lag import LoopLag
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
 from . import history, metrics, routes, transformation, ws
@@ -55,6 +56,8 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
             load = functools.partial(configured_cell, settings, path)
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
         background = await _start_look_back(settings, runtime)
+        app.state.loop_lag = LoopLag()
+        background.append(asyncio.create_task(app.state.loop_lag.run(), name="loop lag"))
         app.state.clearance = None
         if settings.clearance_m > 0.0:
             app.state.clearance = ClearanceService(runtime.hub, settings.clearance_m)

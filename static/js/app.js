@@ -29,6 +29,7 @@ class App {
 
 		this.root = root;
 		this.stage = new Stage( root.getElementById( 'viewport' ) );
+		root.getElementById( 'no-webgl' ).hidden = this.stage.webgl;
 		this.robots = new Robots( this.stage.world );
 		this.hud = new Hud( root, {
 			onShow: ( name, on ) => this.setShown( name, on ),
