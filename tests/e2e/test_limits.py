@@ -5,7 +5,7 @@ viewer in a background thread reads the protocol-2 stream throughout and
 timestamps every frames message; each test attacks from the main thread and
 checks the frames that arrived during its attack against the rate the same
 viewer got before any attack (a ratio: absolute frame rates on a shared
-machine are benchmark figures, ``bench/hostile_clients.py``), and the server's RSS.
+machine are benchmark figures, ``bench/hostile.py``), and the server's RSS.
 """
 
 from __future__ import annotations
