@@ -140,7 +140,9 @@ def main() -> None:
         "was left once it was over. *Mark*: issue 20's bound, the worst round at 45/50 of the "
         "quiet rate or better and at most 20 MB more memory. The tests require only a third of "
         f"the quiet rate. Load average before the run {load}: the 2 cores are shared with "
-        "other work, so a 'no' on frame rate may be the machine's, not the attack's.\n\n"
+        "other work, so a 'no' on frame rate may be the machine's, not the attack's. The viewer "
+        "runs in this process, the server in its own; the 20 heavy requests come from a third "
+        "process. Chromium is not involved.\n\n"
         + markdown_table(
             [
                 "attack",

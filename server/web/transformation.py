@@ -1,9 +1,8 @@
 """REST routes of the Transformation service: ``/fk``, ``/ik`` and ``/move`` of a robot (SI units).
 
-Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed,
-validated, computed and encoded (orjson) in a thread of their own: a large request
-costs its sender time, never the event loop that streams to viewers. FastAPI
-would encode a returned dict on the loop, about 200 ms for 10 000 rows. At most
+Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed and
+validated in the threadpool with the kinematics: a large request costs its
+sender time, never the event loop that streams to viewers. At most
 ``MAX_RUNNING`` of them run at once and ``MAX_WAITING`` wait for their turn;
 past that they are answered 503 with ``Retry-After``, since each running one
 competes with the stream for the interpreter. Models are strict: ``"0.1"``
@@ -14,14 +13,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-from collections.abc import AsyncIterator, Callable
-from concurrent.futures import ThreadPoolExecutor
+import time
+from collections.abc import AsyncIterator
 from typing import Annotated, Any, TypeVar
 
 import orjson
-from fastapi import APIRouter, HTTPException, Request
+from fastapi import APIRouter, HTTPException, Request, Response
+from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..cell import Robot, transformation
@@ -36,8 +35,11 @@ MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
 MAX_LINK_ROWS = 64
 """Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
-MAX_RUNNING = 2
-"""Transformation requests computed at once, per process."""
+CHUNK_ROWS = 500
+"""Rows computed in one go; the thread yields to the event loop between chunks."""
+MAX_RUNNING = 1
+"""Transformation requests computed at once, per process: one core's worth of them, as
+each holds the interpreter in turns with the event loop that streams to viewers."""
 MAX_WAITING = 8
 """Requests that may wait for one of those; past that they are refused at once."""
 WAIT_S = 2.0
@@ -84,16 +86,6 @@ class _Running:
 running = _Running()
 """This process's transformation requests."""
 
-_computing = ThreadPoolExecutor(max_workers=1, thread_name_prefix="linkview-transformation")
-"""Where the running requests are computed, one after the other. Parsing, the kinematics'
-Python and the encoding hold the GIL, so a second thread would not finish them sooner; it
-would only hold a second request's rows in memory (about 11 MB for 10 000) and make the
-stream wait for the GIL twice as often. One thread also keeps reusing one malloc arena."""
-
-
-async def _computed(work: Callable[[Robot, bytes], Response], robot: Robot, raw: bytes) -> Response:
-    return await asyncio.get_running_loop().run_in_executor(_computing, work, robot, raw)
-
 
 class _Body(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
@@ -138,44 +130,51 @@ def _robot(request: Request, name: str) -> Robot:
     return robot
 
 
-def _encoded(content: dict[str, Any]) -> Response:
-    return Response(orjson.dumps(content), media_type="application/json")
-
-
-def _forward(robot: Robot, raw: bytes) -> Response:
+def _forward(robot: Robot, raw: bytes) -> bytes:
     body = _parse(ForwardRequest, raw)
     if body.links and len(body.joints) > MAX_LINK_ROWS:
         raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
-    try:
-        result = transformation.forward(robot, body.joints, body.links)
-    except transformation.TransformInputError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from exc
-    return _encoded({k: v for k, v in vars(result).items() if v is not None})
+    answer: dict[str, list[Any]] = {}
+    for start in range(0, len(body.joints), CHUNK_ROWS):
+        rows = body.joints[start : start + CHUNK_ROWS]
+        try:
+            part = transformation.forward(robot, rows, body.links)
+        except transformation.TransformInputError as exc:
+            raise HTTPException(status_code=422, detail=str(exc)) from exc
+        for key, value in vars(part).items():
+            if value is not None:
+                answer.setdefault(key, []).extend(value)
+        time.sleep(0)  # lets the event loop's thread take the interpreter between chunks
+    # Encoded here, in the worker thread: FastAPI would encode a returned dict of 10 000
+    # rows on the event loop, where it holds up every viewer's frames.
+    return orjson.dumps(answer)
 
 
-def _inverse(robot: Robot, raw: bytes) -> Response:
+def _inverse(robot: Robot, raw: bytes) -> bytes:
     body = _parse(InverseRequest, raw)
     try:
         result = transformation.inverse(robot, body.tcp, body.joints_ref, body.all)
     except transformation.TransformInputError as exc:
         raise HTTPException(status_code=422, detail=str(exc)) from exc
-    return _encoded(vars(result))
+    return orjson.dumps(vars(result))
 
 
 @router.post("/{name}/fk")
 async def forward(name: str, request: Request) -> Response:
     """TCP pose and roll-pitch-yaw for each joint row (``ForwardRequest``)."""
-    robot = _robot(request, name)
+    robot, raw = _robot(request, name), await request.body()  # read first: a 503 then is clean
     async with running.slot():
-        return await _computed(_forward, robot, await request.body())
+        body = await run_in_threadpool(_forward, robot, raw)
+    return Response(body, media_type="application/json")
 
 
 @router.post("/{name}/ik")
 async def inverse(name: str, request: Request) -> Response:
     """Joint solutions for a TCP pose (``InverseRequest``); ``best`` is nearest ``joints_ref``."""
-    robot = _robot(request, name)
+    robot, raw = _robot(request, name), await request.body()
     async with running.slot():
-        return await _computed(_inverse, robot, await request.body())
+        body = await run_in_threadpool(_inverse, robot, raw)
+    return Response(body, media_type="application/json")
 
 
 @router.post("/{name}/move", status_code=202)
