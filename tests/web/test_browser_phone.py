@@ -68,9 +68,7 @@ def _reach_every_control(page: Page, root: str, state: str) -> int:
         # trial: every check a click makes (visible, stable, enabled, receives the pointer at
         # its centre, not covered), without the click's effect (a recording saved, a Move).
         try:
-            page.locator(f'[data-phone-test="{index}"]').click(
-                trial=True, timeout=CLICK_TIMEOUT_MS
-            )
+            page.locator(f'[data-phone-test="{index}"]').click(trial=True, timeout=CLICK_TIMEOUT_MS)
         except Exception as error:  # noqa: BLE001 - say which control, then fail
             pytest.fail(f"{state}: control {name!r} cannot be clicked: {error}")
     controls = page.evaluate(CONTROLS, root)
