@@ -61,7 +61,7 @@ window.linkview = Object.freeze( {
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
 	get plots() {
 
-		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, samples: app.plots.history ? app.plots.history.count : 0 };
+		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, layout: app.plots.layout(), samples: app.plots.history ? app.plots.history.count : 0 };
 
 	},
 	get quality() {
