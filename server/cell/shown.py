@@ -17,13 +17,17 @@ _ABSOLUTE = re.compile(r"(?<![\w:/.~-])(/[^\s'\"(),;]+)")
 
 
 def relative_paths(text: str, folder: Path | None) -> str:
-    """``text`` with each absolute path that exists on disk made relative to ``folder``."""
+    """``text`` with each absolute path inside ``folder``, or in a folder that exists on
+    disk, made relative to ``folder``."""
     if folder is None:
         return text
 
+    inside = str(folder).rstrip("/") + "/"
+
     def relative(match: re.Match[str]) -> str:
         path = match[1].rstrip(".:")
-        if not (os.path.exists(path) or os.path.isdir(os.path.dirname(path))):
+        known = path.startswith(inside) or os.path.isdir(os.path.dirname(path))
+        if not known:
             return match[1]  # not a file of ours: a route, a node path, ...
         return os.path.relpath(path, folder) + match[1][len(path) :]
 

@@ -1,4 +1,5 @@
-"""The clearance check running beside the stream: 10 times a second on the newest joint values."""
+"""The clearance check running beside the stream: 10 times a second on the newest joint values,
+while some viewer has asked for it (``POST /api/clearance``)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,9 @@ CLEARANCE_KEY = "clearance"
 PERIOD_S = 0.1
 RESEND_S = 1.0
 """The result is sent when it changes (to the millimetre), and at least this often."""
+WANTED_S = 10.0
+"""A page that wants clearance says so at least this often (``want``); nobody asking,
+nothing is measured: the meshes are not even read."""
 
 
 def _world_links(robot: Robot, values: Array) -> Array | None:
@@ -47,6 +51,16 @@ class ClearanceService:
         self.last: Clearance | None = None
         self._checker: ClearanceChecker | None = None
         self._robots: tuple[Robot, ...] = ()
+        self._wanted_until = 0.0
+
+    def want(self) -> None:
+        """A viewer shows clearance: measure for the next ``WANTED_S``."""
+        self._wanted_until = time.monotonic() + WANTED_S
+
+    @property
+    def wanted(self) -> bool:
+        """Whether some viewer asked for clearance within ``WANTED_S``."""
+        return time.monotonic() < self._wanted_until
 
     async def run(
         self,
@@ -57,6 +71,9 @@ class ClearanceService:
         sent_at, sent = 0.0, None
         while True:
             await asyncio.sleep(PERIOD_S)
+            if not self.wanted:
+                sent = None  # whoever asks next gets the result at once
+                continue
             try:
                 result = await asyncio.to_thread(self.measure, robots(), dict(values()))
             except Exception:  # a bug here must never touch the stream

@@ -26,7 +26,7 @@ from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import history, metrics, routes, transformation, ws
+from . import clearance, history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
 from .headers import SecurityHeaders
 
@@ -91,6 +91,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app.include_router(transformation.router)
     app.include_router(metrics.router)
     app.include_router(history.router)
+    app.include_router(clearance.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 

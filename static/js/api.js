@@ -68,4 +68,11 @@ function move( name, joints ) {
 
 }
 
-export { forward, inverse, move, reason };
+/** Ask the server to measure clearance for the next 10 s (server/web/clearance.py). */
+function wantClearance() {
+
+	return post( '/api/clearance', {} );
+
+}
+
+export { forward, inverse, move, reason, wantClearance };

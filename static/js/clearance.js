@@ -1,9 +1,11 @@
 import * as THREE from 'three';
+import { wantClearance } from './api.js';
 
 // The server's clearance check (server/clearance, docs/protocol.md `clearance`):
-// it measures the links of different robots ten times a second; this page shows
-// the result only while its toggle is on.
+// it measures the links of different robots ten times a second while some page
+// asks for it (a lease of 10 s, renewed while the toggle is on).
 const HIGHLIGHT = 0xe02020;
+const RENEW_MS = 4000;
 
 /** "Clearance" toggle: the nearest links of different robots, named, with a box around each. */
 class ClearanceWarning {
@@ -23,7 +25,25 @@ class ClearanceWarning {
 			stage.scene.add( box );
 
 		}
-		this.toggle.addEventListener( 'change', () => this._show() );
+		this._renew = 0;
+		this.toggle.addEventListener( 'change', () => {
+
+			clearInterval( this._renew );
+			if ( this.on ) {
+
+				this._ask();
+				this._renew = setInterval( () => this._ask(), RENEW_MS );
+
+			}
+			this._show();
+
+		} );
+
+	}
+
+	_ask() {
+
+		wantClearance().catch( () => {} ); // the socket's state tells of a server that is away
 
 	}
 
@@ -105,6 +125,7 @@ class ClearanceWarning {
 
 	dispose() {
 
+		clearInterval( this._renew );
 		for ( const box of this.boxes ) {
 
 			box.removeFromParent();

@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import aiohttp
 import numpy as np
 import pytest
 from websockets.asyncio.client import connect
@@ -80,7 +81,15 @@ def test_the_demo_cycle_keeps_every_robot_clear() -> None:
 
 
 async def next_clearance(base: str) -> dict[str, Any]:
+    """The first clearance message that measured both arms, once a page asked for it."""
     async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(20):
+        await asyncio.sleep(0.5)
+        async with aiohttp.ClientSession() as http:
+            async with http.get(base + "/api/health") as resp:
+                assert resp.status in (200, 503)
+            # Nobody asked yet: nothing was measured, nothing sent.
+            async with http.post(base + "/api/clearance", json={}) as resp:
+                assert resp.status == 204
         while True:
             message = await ws.recv()
             if isinstance(message, str) and json.loads(message)["type"] == "clearance":
@@ -103,3 +112,18 @@ async def test_viewers_hear_of_no_pair_when_robots_are_clear(tmp_path: Path) -> 
     async with running_server(settings) as base:
         clearance = await next_clearance(base)
     assert clearance["near"] == [] and sorted(clearance["robots"]) == ["left", "right"]
+
+
+async def test_nothing_is_measured_until_a_page_asks(tmp_path: Path) -> None:
+    async with running_server(Settings(cell=two_arms(tmp_path, 0.15))) as base:
+        async with connect(base.replace("http", "ws") + "/ws") as ws:
+            types = []
+            try:
+                async with asyncio.timeout(1.5):
+                    while True:
+                        message = await ws.recv()
+                        if isinstance(message, str):
+                            types.append(json.loads(message)["type"])
+            except TimeoutError:
+                pass
+    assert "status" in types and "clearance" not in types, types

@@ -26,7 +26,7 @@ def test_the_clearance_toggle_names_and_boxes_the_touching_links(
         assert not page.locator("#clearance").is_visible()
         toggle.check()
         page.wait_for_function(
-            "window.linkview.clearance.highlighted.length === 2", timeout=TIMEOUT_MS
+            "() => window.linkview.clearance.highlighted.length === 2", timeout=TIMEOUT_MS
         )
         shown = page.evaluate("window.linkview.clearance")
         assert shown["highlighted"] == [["left", "link0"], ["right", "link0"]]

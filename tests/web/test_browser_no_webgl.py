@@ -49,7 +49,7 @@ def test_without_webgl_the_page_says_so_and_stays_live(
             arg=first,
             timeout=TIMEOUT_MS,
         )
-        page.wait_for_function("window.linkview.plots.samples > 10", timeout=TIMEOUT_MS)
+        page.wait_for_function("() => window.linkview.plots.samples > 10", timeout=TIMEOUT_MS)
         assert "frames/s" in page.locator(".robot-state").first.inner_text()
         # The simulation panel works too: it solves and previews without drawing.
         page.select_option("#selected-robot", "kin12")
