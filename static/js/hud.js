@@ -191,6 +191,8 @@ class Hud {
 				element( 'span', 'muted', source.state ),
 				element( 'span', 'age', age )
 			);
+			// The controller's address in plain sight: a commissioning engineer checks it first.
+			item.append( element( 'span', 'address', source.url ) );
 			if ( source.error ) item.append( element( 'span', 'error', source.error ) );
 			if ( source.warning ) item.append( element( 'span', 'warning', source.warning ) );
 			this.sourcesEl.append( item );

@@ -51,6 +51,11 @@ def test_without_webgl_the_page_says_so_and_stays_live(
         )
         page.wait_for_function("() => window.linkview.plots.samples > 10", timeout=TIMEOUT_MS)
         assert "frames/s" in page.locator(".robot-state").first.inner_text()
+        # Each source says which controller and where: its name and address in plain sight.
+        source = page.locator("#sources li").first
+        assert source.locator(".name").inner_text().startswith("demo")
+        assert source.locator(".address").inner_text().startswith("http://127.0.0.1:")
+        assert source.locator(".address").is_visible()
         # The simulation panel works too: it solves and previews without drawing.
         page.select_option("#selected-robot", "kin12")
         page.click("#target-from-tcp")
