@@ -6,7 +6,6 @@ import argparse
 import asyncio
 import contextlib
 import functools
-import ipaddress
 import logging
 import os
 import socket
@@ -20,6 +19,7 @@ from pydantic import ValidationError
 from .cell import CellError, load_cell
 from .cluster import broker_settings, run_worker
 from .config import Settings
+from .hosts import HostPolicy, is_loopback
 from .logs import setup_logging
 from .runtime.startup import configured_cell, source_defaults
 from .text import plural
@@ -43,7 +43,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         "`python -m server discover URL` writes one for a controller; "
         "`python -m server acquire` runs an acquisition worker of a cluster.",
     )
-    parser.set_defaults(host=None, port=None, viewer_token=None, allow_origin=None)
+    parser.set_defaults(host=None, port=None, viewer_token=None, allow_origin=None, allow_host=None)
     parser.set_defaults(max_viewers=None)
     web = parser.add_argument_group("web server") if not worker else None
     if web is not None:
@@ -69,6 +69,13 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
             metavar="URL",
             action="append",
             help="also let pages from this origin open the stream (repeatable)",
+        )
+        web.add_argument(
+            "--allow-host",
+            metavar="NAME",
+            action="append",
+            help="also answer requests naming this server NAME (repeatable; .example.com for "
+            "every name under it); bound to loopback, only loopback names are answered",
         )
         web.add_argument("--max-viewers", type=int, help="refuse viewers beyond this (1000)")
     parser.add_argument(
@@ -120,6 +127,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         "allow_commands": args.allow_commands,
         "viewer_token": args.viewer_token,
         "allow_origin": args.allow_origin,
+        "allow_host": args.allow_host,
         "max_viewers": args.max_viewers,
         "ctrlx_url": args.ctrlx,
         "ctrlx_mode": args.mode,
@@ -200,6 +208,9 @@ def main(argv: list[str] | None = None) -> None:
             settings.host,
             port,
         )
+    if not is_loopback(settings.host) or settings.allow_host:
+        hosts = HostPolicy(settings.host, settings.allow_host).describe()
+        log.info("answering requests for the host names %s (--allow-host adds names)", hosts)
     if settings.ctrlx_url is not None and "ctrlx_password" not in settings.model_fields_set:
         log.warning(
             "logging in to %s as %s with the default password; set LINKVIEW_CTRLX_USER and "
@@ -260,16 +271,6 @@ def acquire(argv: list[str]) -> int:
     with contextlib.suppress(KeyboardInterrupt):
         asyncio.run(run_worker(cell, source_defaults(settings), broker, load))
     return 0
-
-
-def is_loopback(host: str) -> bool:
-    """True for addresses only this machine can reach."""
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 if __name__ == "__main__":

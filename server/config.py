@@ -26,7 +26,9 @@ class Settings(BaseSettings):
     viewer_token: SecretStr | None = None
     """Required on the page, /ws and /api/* when set (``?token=`` in a link sets a cookie)."""
     allow_origin: list[str] = []
-    """Origins besides the server's own whose pages may open /ws."""
+    """Origins besides the server's own whose pages may open /ws and send commands."""
+    allow_host: list[str] = []
+    """Host names answered besides loopback ones (and, bound beyond loopback, IP addresses)."""
     max_viewers: int = Field(1000, ge=1)
     """Viewers beyond this many are refused with 503."""
     client_timeout_s: float = Field(10.0, gt=0.0)
@@ -59,6 +61,8 @@ class Settings(BaseSettings):
     """An MCAP recording to serve as if live (with --cell: the cell to replay it with)."""
     foxglove_port: int | None = Field(None, ge=0, le=65535)
     """Serve the same data live over Foxglove's WebSocket protocol on this port (same host)."""
+    clearance_m: float = Field(0.05, ge=0.0, le=10.0)
+    """Links of different robots closer than this are reported (page toggle); 0: not checked."""
     # A cluster (docs/cluster.md).
     broker: str | None = None
     """``redis://HOST:PORT/DB``: run as one role of a cluster sharing this Redis server."""

@@ -134,11 +134,33 @@ class CellNotice(_Message):
     """Why the file as it is on disk now could not be loaded (the last good cell still runs)."""
 
 
+class NearLinks(_Message):
+    """Two links of different robots that come within the distance of interest."""
+
+    robots: tuple[str, str]
+    links: tuple[int, int]
+    """Link indices, as in each robot's ``hello`` links."""
+    link_names: tuple[str, str]
+    distance_m: float
+    """Between the links' convex hulls; 0 when they touch or interpenetrate."""
+
+
+class Clearance(_Message):
+    type: Literal["clearance"]
+    within_m: float
+    """Pairs closer than this are listed."""
+    robots: list[str]
+    """The robots measured (those with meshes and a pose now)."""
+    near: list[NearLinks]
+    """The closest pair of links of each pair of robots within ``within_m``, nearest first."""
+
+
 MESSAGE_TYPES: dict[str, type[_Message]] = {
     "hello": Hello,
     "frame": Frame,
     "status": Status,
     "cell": CellNotice,
+    "clearance": Clearance,
 }
 
 

@@ -27,9 +27,14 @@ class AxisGroupKinematics:
         poses, ok = self.link_poses(q)
         return poses[..., -1, :, :], ok
 
-    def inverse(self, pose: Array, q_ref: Array | None = None) -> tuple[Array, BoolArray]:
-        """Positions (axis-index order) putting the last axis frame on ``pose``, near ``q_ref``."""
-        return serial_rotary_inverse(self._world, self._group, pose, q_ref)
+    def inverse(
+        self, pose: Array, q_ref: Array | None = None, limited: bool = True
+    ) -> tuple[Array, BoolArray]:
+        """Positions (axis-index order) putting the last axis frame on ``pose``, near ``q_ref``.
+
+        ``limited=False`` ignores the limits (see ``serial_rotary_inverse``).
+        """
+        return serial_rotary_inverse(self._world, self._group, pose, q_ref, limited)
 
     def params(self) -> dict[str, Any]:
         """The group as ``WorldModel.params`` describes it."""

@@ -13,18 +13,21 @@ from __future__ import annotations
 
 import os
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
+from ..protocol import RobotInfo
 from ..text import plural
 from . import schema
 from ._validate import Validated, validate
 from .families import Built, SpecError, Where, build, pose_matrix
+from .mesh_files import glb_problem
 from .robot import Joint, Robot
+from .shown import relative_paths
 
 DEFAULT_COMMAND_NODE = "motion/grp/{robot}/cmd/pos-abs"
 
@@ -68,6 +71,23 @@ class Cell:
     def robots_of(self, source: str) -> list[Robot]:
         """The robots driven by ``source``, in cell order."""
         return [r for r in self.robots if r.source == source]
+
+    @property
+    def folder(self) -> Path | None:
+        """The cell file's folder, which texts for viewers name files relative to."""
+        return None if self.path is None else self.path.parent
+
+    def shown(self, text: str) -> str:
+        """``text`` (a warning, an error) as viewers see it: paths relative to ``folder``."""
+        return relative_paths(text, self.folder)
+
+    def infos(self, commandable: Callable[[Robot], bool]) -> list[RobotInfo]:
+        """Every robot as announced in ``hello``, its warnings as viewers see them."""
+        infos = []
+        for robot in self.robots:
+            info = robot.info(commandable(robot))
+            infos.append(info.model_copy(update={"warnings": list(map(self.shown, info.warnings))}))
+        return infos
 
 
 def default_cache_dir() -> Path:
@@ -212,10 +232,11 @@ class _Builder:
             self._report((f"{key}.kinematics.{exc.key}", str(exc)))
             return None
         joints = self._joints(key, spec, built)
-        meshes = self._meshes(key, spec, built)
+        found = self._meshes(key, spec, built)
         targets = self._targets(key, spec, built)
-        if joints is None or meshes is None or targets is None:
+        if joints is None or found is None or targets is None:
             return None
+        meshes, refused = found
         base = pose7_from_matrix(pose_matrix(spec.base))
         return Robot(
             name=spec.name,
@@ -229,7 +250,7 @@ class _Builder:
             tcp_is_last_link=built.tcp_is_last_link,
             command_node=spec.command_node or DEFAULT_COMMAND_NODE.format(robot=spec.name),
             demo_targets=targets,
-            warnings=built.warnings,
+            warnings=built.warnings + refused,
         )
 
     def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:
@@ -310,9 +331,12 @@ class _Builder:
             order.append(names.index(entry.joint))
         return order
 
-    def _meshes(self, key: str, spec: schema.Robot, built: Built) -> tuple[Path | None, ...] | None:
+    def _meshes(
+        self, key: str, spec: schema.Robot, built: Built
+    ) -> tuple[tuple[Path | None, ...], tuple[str, ...]] | None:
+        """Per link its GLB (None: a stand-in), and why files of ``mesh_dir`` were refused."""
         if spec.mesh_dir is None:
-            return built.meshes or (None,) * len(built.link_names)
+            return built.meshes or (None,) * len(built.link_names), ()
         if built.meshes:
             self._report(
                 (f"{key}.mesh_dir", "URDF robots take their meshes from the URDF's visuals")
@@ -322,7 +346,7 @@ class _Builder:
         if not folder.is_dir():
             self._report((f"{key}.mesh_dir", f"no such folder: {folder}"))
             return None
-        missing = [n for n in built.link_names if not (folder / f"{n}.glb").is_file()]
+        missing = [n for n in built.link_names if not (folder / f"{n}.glb").exists()]
         if missing:
             self._report(
                 (
@@ -333,7 +357,15 @@ class _Builder:
                 )
             )
             return None
-        return tuple(folder / f"{n}.glb" for n in built.link_names)
+        files: list[Path | None] = []
+        refused: list[str] = []
+        for name in built.link_names:
+            path = folder / f"{name}.glb"
+            problem = glb_problem(path, folder)
+            if problem is not None:  # never served: the page draws a stand-in
+                refused.append(f"mesh {path} {problem}; drawn as a stand-in")
+            files.append(None if problem else path)
+        return tuple(files), tuple(refused)
 
     def _targets(
         self, key: str, spec: schema.Robot, built: Built

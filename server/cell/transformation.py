@@ -11,8 +11,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics import LBRiiwa, matrix_from_pose7, pose7_from_matrix, rpy_from_matrix
+from ..kinematics import (
+    DHChain,
+    LBRiiwa,
+    UrdfChain,
+    matrix_from_pose7,
+    pose7_from_matrix,
+    rpy_from_matrix,
+)
+from .axis_group import AxisGroupKinematics
 from .robot import Array, BoolArray, Robot
+
+_LIMITED_SOLVERS = (DHChain, UrdfChain, AxisGroupKinematics)
+"""Numerical inverses that keep within the limits (the LBR iiwa's analytic one lists all)."""
 
 
 class TransformInputError(ValueError):
@@ -88,16 +99,36 @@ def inverse(
     ref = np.zeros(n) if joints_ref is None else _joint_rows(robot, [joints_ref])[0]
     pose = matrix_from_pose7(pose7)
     kin = robot.kinematics
-    best, ok = kin.inverse(pose, ref)
+    best, reached = kin.inverse(pose, ref)
+    ok = bool(reached)
+    # Every family is judged by the cell's limits here, whatever its solver heeded.
     solutions: Array = best[None][: int(ok)]
-    within: BoolArray = np.ones(int(ok), dtype=bool)
-    if isinstance(kin, LBRiiwa) and (all_solutions or not ok):
+    if isinstance(kin, LBRiiwa) and (all_solutions or not ok or not _within(robot, best)):
         # The eight analytic configurations, also to tell "outside the limits" from "out of reach".
         found = kin.inverse_all(pose, ref[2])
-        solutions, within = found.q[found.reached], found.within_limits[found.reached]
-    if not bool(ok):
+        solutions = found.q[found.reached]
+    within = _within(robot, solutions)
+    if ok and not _within(robot, best):
+        inside = solutions[within]  # another configuration may reach it within the limits
+        if len(inside):
+            best = inside[np.argmin(np.abs(inside - ref).sum(axis=-1))]
+        else:
+            ok = False
+    if not ok and not len(solutions) and isinstance(kin, _LIMITED_SOLVERS):
+        # These solve within the limits; without them, a pose they miss may be reached.
+        free, reached_free = kin.inverse(pose, ref, limited=False)
+        if bool(reached_free):
+            solutions, within = free[None], _within(robot, free[None])
+    if not ok:
         error = "reached only outside the joint limits" if len(solutions) else "out of reach"
         return InverseResult(solutions.tolist(), within.tolist(), None, False, error)
     if not all_solutions:
         solutions, within = best[None], np.ones(1, dtype=bool)
     return InverseResult(solutions.tolist(), within.tolist(), best.tolist(), True, None)
+
+
+def _within(robot: Robot, q: Array) -> BoolArray:
+    """Whether joints ``q`` (..., n) are within ``robot``'s limits (1e-9 of slack: round-off)."""
+    lo, hi = robot.limits[:, 0], robot.limits[:, 1]
+    inside: BoolArray = np.all((q >= lo - 1e-9) & (q <= hi + 1e-9), axis=-1)
+    return inside

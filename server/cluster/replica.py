@@ -61,7 +61,7 @@ WAITING = "waiting for the acquisition worker"
 
 def session_of(cell: Cell) -> str:
     """The same on every replica serving the same cell (however each names the broker)."""
-    infos = [r.info(False).model_dump() for r in cell.robots]
+    infos = [info.model_dump() for info in cell.infos(lambda _: False)]
     return hashlib.sha256(orjson.dumps(infos)).hexdigest()[:16]
 
 

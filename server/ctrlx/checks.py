@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import ipaddress
 from urllib.parse import SplitResult, urlsplit
 
-LOOPBACK_NAMES = frozenset({"localhost", "localhost.localdomain"})
+from ..hosts import is_loopback
 
 
 def check_base_url(url: str) -> str | None:
@@ -38,7 +37,7 @@ def check_base_url(url: str) -> str | None:
         raise ValueError(f"controller URL {shown!r} has an invalid port") from None
     if parts.query or parts.fragment:
         raise ValueError(f"controller URL {shown!r} must not have a query or fragment")
-    if scheme == "http" and not _is_loopback(parts.hostname):
+    if scheme == "http" and not is_loopback(parts.hostname):
         return (
             f"plain http to {parts.hostname}: credentials travel in clear; "
             "use https (with --ctrlx-ca FILE for the device's own certificate)"
@@ -50,12 +49,3 @@ def _without_userinfo(parts: SplitResult) -> str:
     if "@" not in parts.netloc:
         return parts.geturl()
     return parts._replace(netloc=parts.netloc.rsplit("@", 1)[1]).geturl()
-
-
-def _is_loopback(host: str) -> bool:
-    if host.lower() in LOOPBACK_NAMES:
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False

@@ -19,14 +19,20 @@ BoolArray = npt.NDArray[np.bool_]
 
 
 def serial_rotary_inverse(
-    world: WorldModel, group: str, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None
+    world: WorldModel,
+    group: str,
+    pose: npt.ArrayLike,
+    q_ref: npt.ArrayLike | None = None,
+    limited: bool = True,
 ) -> tuple[Array, BoolArray]:
     """Positions ``(..., n)`` (rad, axis-index order) putting the last axis frame on ``pose``.
 
     ``pose``: ``(..., 4, 4)`` world poses. Among converged solutions the one
     nearest ``q_ref`` wins. ``ok`` is False where no start converged (a group
-    with fewer than six axes reaches only poses on its own manifold). Raises
-    ValueError for groups that are not a single chain of rotary axes.
+    with fewer than six axes reaches only poses on its own manifold).
+    ``limited=False`` ignores the axes' limits (to tell a pose reached only
+    outside them from one out of reach). Raises ValueError for groups that are
+    not a single chain of rotary axes.
     """
     params = world.params(group)
     axes = params["axes"]
@@ -34,6 +40,8 @@ def serial_rotary_inverse(
     if not axes or not chained or any(ax["type"] != 0 for ax in axes):
         raise ValueError(f"axis group {group!r}: inverse needs one chain of rotary axes")
     limits = np.array([ax["q_limits"] for ax in axes], dtype=np.float64)
+    if not limited:
+        limits = np.full_like(limits, np.inf) * [-1.0, 1.0]
     target = np.asarray(pose, dtype=np.float64)
     lead = target.shape[:-2]
     ref = (

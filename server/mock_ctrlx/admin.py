@@ -10,38 +10,21 @@ both name the attacker's domain) out as well.
 
 from __future__ import annotations
 
-import ipaddress
-
 from aiohttp import web
 from aiohttp.typedefs import Handler
 
+from ..hosts import host_name, is_loopback
 from .problems import request_problem
 from .state import STATE_KEY
 
 ADMIN_PREFIX = "/mock/"
 
 
-def _is_loopback(address: str | None) -> bool:
-    if not address:
-        return False
-    try:
-        return ipaddress.ip_address(address.strip("[]").split("%", 1)[0]).is_loopback
-    except ValueError:
-        return address.lower() == "localhost"
-
-
-def _host_name(host: str) -> str:
-    """The host part of a Host header (``[::1]:8443`` -> ``::1``)."""
-    if host.startswith("["):
-        return host[1:].split("]", 1)[0]
-    return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
-
-
 def refusal(request: web.Request) -> str | None:
     """Why ``request`` may not use the admin endpoints, or None when it may."""
-    if not _is_loopback(request.remote):
+    if not is_loopback(request.remote):
         return "the admin endpoints answer only to loopback clients"
-    if not _is_loopback(_host_name(request.host)):
+    if not is_loopback(host_name(request.host)):
         return "the admin endpoints answer only to a loopback host name"
     origin = request.headers.get("Origin")
     if origin is not None and origin != f"{request.scheme}://{request.host}":

@@ -11,6 +11,7 @@ import secrets
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from ..cell import Cell, Robot
 from ..ctrlx import DataLayerError
@@ -95,7 +96,7 @@ class Runtime:
             running.robots = cell.robots_of(name)
             running.acquisition.set_robots(running.robots, indices)
         if self.sources:  # not the first start: a reload
-            self.history.marks.add("reload", f"cell {self._path or '(built in)'} reloaded")
+            self.history.marks.add("reload", f"cell {self.cell_name or '(built in)'} reloaded")
         self.history.keep_only(wanted)
         self.sources = {s.name: kept[s.name] for s in cell.sources}
         self.cell, self.cell_error = cell, None
@@ -108,8 +109,8 @@ class Runtime:
 
     def reject(self, error: str) -> None:
         """A new version of the cell file is unusable: keep running, say why."""
-        self.cell_error = error
-        self.hub.publish("cell", Message(cell_message(self._path, error)))
+        self.cell_error = self.cell.shown(error)
+        self.hub.publish("cell", Message(cell_message(self.cell_name, error)))
 
     async def stop(self) -> None:
         """Stop every source."""
@@ -129,6 +130,15 @@ class Runtime:
     def healths(self) -> list[SourceHealth]:
         """The health of every source, in cell order."""
         return [s.health for s in self.sources.values()]
+
+    def newest_values(self) -> dict[str, npt.NDArray[np.float64]]:
+        """The joint values (node units) of every robot whose newest sample had poses."""
+        return {
+            name: robot.values
+            for health in self.healths()
+            for name, robot in health.robots.items()
+            if robot.ok and robot.values is not None
+        }
 
     def commandable(self, robot: Robot) -> bool:
         """Whether moves may be sent for ``robot``: embedded mock, or allowed by flag or cell."""
@@ -155,12 +165,13 @@ class Runtime:
         return {}
 
     @property
-    def _path(self) -> str | None:
-        return None if self.cell.path is None else str(self.cell.path)
+    def cell_name(self) -> str | None:
+        """The cell file as viewers see it: its name, in its own folder."""
+        return None if self.cell.path is None else self.cell.path.name
 
     def _publish_cell(self) -> None:
-        infos = [r.info(self.commandable(r)) for r in self.cell.robots]
+        infos = self.cell.infos(self.commandable)
         for protocol in PROTOCOL_VERSIONS:
             hello = hello_message(infos, self.session, protocol)
             self.hub.publish(f"hello:{protocol}", Message(hello), protocol=protocol)
-        self.hub.publish("cell", Message(cell_message(self._path, self.cell_error)))
+        self.hub.publish("cell", Message(cell_message(self.cell_name, self.cell_error)))

@@ -87,7 +87,9 @@ def resolve_mesh(uri: str, link: str, folders: Sequence[Path], packages: Package
     includes) that has the file.
     """
     if uri.startswith("package://"):
-        name, _, rest = uri[len("package://") :].partition("/")
+        # "package:///pkg/rest" (an empty host, as pinocchio's data writes it) means
+        # the same as "package://pkg/rest" to ROS's package-path search.
+        name, _, rest = uri[len("package://") :].lstrip("/").partition("/")
         try:
             path = packages.require(name) / rest
         except UrdfError as exc:

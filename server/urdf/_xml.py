@@ -148,7 +148,7 @@ def _link(link: Any, out: Cleaned, where: Where) -> None:
         _visual(visual, name, index, out, where)
 
 
-def _joint(joint: Any, out: Cleaned, where: Where) -> None:
+def _joint(joint: Any, joints: set[str | None], out: Cleaned, where: Where) -> None:
     name = joint.get("name")
     kind = joint.get("type")
     if kind in FROZEN_TYPES:
@@ -169,6 +169,14 @@ def _joint(joint: Any, out: Cleaned, where: Where) -> None:
     mimic = joint.find("mimic")
     if mimic is not None and not mimic.get("joint"):
         raise UrdfError(f"{where(mimic)}: joint {name!r}: <mimic> without a joint")
+    if mimic is not None and mimic.get("joint") not in joints:
+        # Published files do this (a hand renamed, its mimics not): the joint still
+        # moves, it just follows its own value instead of another's.
+        out.warnings.append(
+            f"{where(mimic)}: joint {name!r} mimics {mimic.get('joint')!r}, which is not a "
+            "joint of this robot: it is followed as a joint of its own"
+        )
+        joint.remove(mimic)
     for el in joint.iter():
         _numbers(el, f"joint {name!r}", where)
 
@@ -188,11 +196,18 @@ def clean(root: Any, where: Where) -> Cleaned:
             raise UrdfError(f"{where(el)}: <{el.tag}> without a name")
         if el.tag in ("link", "joint"):
             out.elements.setdefault(f"{el.tag} {el.get('name')!r}", el)
+    if root.find("link") is None:
+        raise UrdfError(f"{where(root)}: <robot> holds no <link>: there is nothing to draw")
+    if not root.get("name"):
+        # urdfdom refuses it; a viewer loses nothing by going on without one.
+        out.warnings.append(f"{where(root)}: <robot> without a name")
+        root.set("name", "robot")
+    joints = {el.get("name") for el in root if el.tag == "joint"}
     for el in root:
         if el.tag == "link":
             _link(el, out, where)
         elif el.tag == "joint":
-            _joint(el, out, where)
+            _joint(el, joints, out, where)
         else:
             for item in el.iter():
                 _numbers(item, f"material {el.get('name')!r}", where)

@@ -18,6 +18,7 @@ scales, colours and primitive sizes, the link name and the trimesh version.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import re
@@ -166,13 +167,51 @@ def _finish(mesh: Any, rgba: tuple[float, float, float, float] | None) -> Any:
 
 
 def _collada_unit(path: Path) -> float:
-    """Metres per unit of a COLLADA file (``<asset><unit meter>``), 1 if not given."""
-    unit = etree.parse(str(path)).getroot().find("{*}asset/{*}unit")
-    return 1.0 if unit is None else float(unit.get("meter", "1"))
+    """Metres per unit of a COLLADA file (``<asset><unit meter>``), 1 if not given.
+
+    Read as a stream that stops at the end of ``<asset>``, the file's first
+    element: exported meshes hold single text nodes of tens of megabytes, past
+    what lxml parses whole by default, and the geometry is trimesh's to read.
+    """
+    with path.open("rb") as file:  # closed however early the loop stops
+        events = etree.iterparse(
+            file, events=("end",), huge_tree=True, resolve_entities=False, no_network=True
+        )  # the same guards as _safe_xml
+        for _, el in events:
+            tag = etree.QName(el).localname
+            if tag == "unit" and etree.QName(el.getparent()).localname == "asset":
+                return float(el.get("meter", "1"))
+            if tag == "asset":
+                break
+    return 1.0
+
+
+def _safe_xml() -> Any:
+    return etree.XMLParser(huge_tree=True, resolve_entities=False, no_network=True)
+
+
+def _collada_without_materials(path: Path) -> Any:
+    """The scene of a COLLADA file read with its material bindings cut away.
+
+    pycollada drops a whole node when one material it binds is broken (an
+    effect naming a texture surface that is not there, as Blender 2.79 wrote
+    some), so the link would have no shape at all; its shape matters more.
+    """
+    root = etree.parse(str(path), _safe_xml()).getroot()
+    for bind in root.findall(".//{*}bind_material"):
+        bind.getparent().remove(bind)
+    return tm.load(io.BytesIO(etree.tostring(root)), file_type="dae", force="scene")
+
+
+def _load_scene(path: Path) -> Any:
+    scene = tm.load(path, force="scene")
+    if not scene.geometry and path.suffix.lower() == ".dae":
+        scene = _collada_without_materials(path)
+    return scene
 
 
 def _mesh_file(visual: Visual, geometry: MeshGeometry) -> list[Any]:
-    scene = tm.load(geometry.path, force="scene")
+    scene = _load_scene(geometry.path)
     unit = _collada_unit(geometry.path) if geometry.path.suffix.lower() == ".dae" else 1.0
     scale = np.diag([*(unit * s for s in geometry.scale), 1.0])
     parts = []

@@ -15,16 +15,20 @@ from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from ..cell import Cell
+from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
+from ..hosts import HostPolicy
 from ..paths import STATIC_DIR
 from ..recording import Recorder
 from ..runtime import Runtime
+from ..runtime.loop_lag import LoopLag
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import history, metrics, routes, transformation, ws
+from . import clearance, history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
+from .headers import SecurityHeaders
 
 log = logging.getLogger(__name__)
 
@@ -51,14 +55,20 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
         if path is not None:
             load = functools.partial(configured_cell, settings, path)
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
-        look_back = await _start_look_back(settings, runtime)
-        app.state.look_back = look_back
+        background = await _start_look_back(settings, runtime)
+        app.state.loop_lag = LoopLag()
+        background.append(asyncio.create_task(app.state.loop_lag.run(), name="loop lag"))
+        app.state.clearance = None
+        if settings.clearance_m > 0.0:
+            app.state.clearance = ClearanceService(runtime.hub, settings.clearance_m)
+            check = app.state.clearance.run(lambda: runtime.robots, runtime.newest_values)
+            background.append(asyncio.create_task(check, name="clearance"))
         try:
             yield
         finally:
-            for task in look_back:
+            for task in background:
                 task.cancel()
-            await asyncio.gather(*look_back, return_exceptions=True)
+            await asyncio.gather(*background, return_exceptions=True)
             stop.set()
             if watcher is not None:
                 watcher.cancel()
@@ -69,14 +79,19 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app = FastAPI(title="linkview", lifespan=lifespan)
     app.state.max_viewers = settings.max_viewers
     token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
-    app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin)
+    hosts = HostPolicy(settings.host, settings.allow_host)
+    app.add_middleware(
+        Gatekeeper, token=token, allowed_origins=settings.allow_origin, hosts=hosts
+    )
     app.add_middleware(LimitBody)
+    app.add_middleware(SecurityHeaders, page=STATIC_DIR / "index.html")
     app.add_exception_handler(RequestValidationError, _validation_error)
     app.include_router(routes.router)
     app.include_router(ws.router)
     app.include_router(transformation.router)
     app.include_router(metrics.router)
     app.include_router(history.router)
+    app.include_router(clearance.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 

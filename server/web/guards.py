@@ -1,4 +1,4 @@
-"""Who may watch and how much they may send: Origin check, viewer token, request body limit.
+"""Who may watch and how much they may send: Host, Origin, viewer token, request body limit.
 
 Pure ASGI middleware rather than FastAPI dependencies: a refused request is
 answered before any route, body parser or WebSocket handshake runs.
@@ -14,9 +14,13 @@ from urllib.parse import parse_qs, urlsplit
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from ..hosts import HostPolicy
+
 MAX_BODY_BYTES = 1 << 20
 """Request bodies above 1 MiB are refused with 413 before they are read."""
 TOKEN_COOKIE = "linkview_token"
+WRITES = frozenset({"POST", "PUT", "PATCH", "DELETE"})
+"""Methods that may change state: a cross-site page must not be able to send them."""
 
 
 class BodyTooLarge(HTTPException):
@@ -46,47 +50,83 @@ def origin_of(url: str) -> str:
 
 
 class Gatekeeper:
-    """Refuses foreign origins on ``/ws`` and, with a viewer token set, anyone without it.
+    """Refuses other sites' pages and, with a viewer token set, anyone without it.
 
+    * ``Host`` must be a name this server answers (``hosts``): a page that
+      reached it through DNS rebinding names its own domain there.
     * ``Origin`` (sent by browsers) must be the server's own origin or one of
-      ``allowed_origins``; a page on another site cannot open the stream. A
-      missing Origin is a non-browser client, which the token (if any) guards.
+      ``allowed_origins`` on ``/ws`` and on every request that may change state
+      (POST, PUT, PATCH, DELETE), which must also be JSON: a page on another
+      site can neither open the stream nor send a "simple" form or text/plain
+      request, which browsers send without asking first. A missing Origin is a
+      non-browser client, which the token (if any) guards.
     * The token comes as a cookie (set by opening the page with ``?token=``,
-      ``HttpOnly`` and ``SameSite=Strict``), a ``?token=`` query, or an
-      ``Authorization: Bearer`` header.
+      ``HttpOnly``, ``SameSite=Strict`` and, over TLS, ``Secure``), a
+      ``?token=`` query, or an ``Authorization: Bearer`` header.
     """
 
     def __init__(
-        self, app: ASGIApp, token: str | None = None, allowed_origins: Iterable[str] = ()
+        self,
+        app: ASGIApp,
+        token: str | None = None,
+        allowed_origins: Iterable[str] = (),
+        hosts: HostPolicy | None = None,
     ) -> None:
         self.app = app
         self.token = token or None
         self.allowed = {origin_of(o) for o in allowed_origins}
+        self.hosts = hosts or HostPolicy("127.0.0.1")
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
+        host = _header(scope, b"host")
+        if not self.hosts.allows(host):
+            await refuse(scope, send, 403, self.hosts.refusal(host or ""))
+            return
         if scope["type"] == "websocket" and not self._origin_ok(scope):
             await refuse(scope, send, 403, "cross-origin WebSocket refused")
             return
+        if scope["type"] == "http" and scope["method"] in WRITES:
+            reason = self._write_refusal(scope)
+            if reason is not None:
+                status, text = reason
+                await refuse(scope, send, status, text)
+                return
         if self.token is not None:
             given, from_query = self._token_of(scope)
             if given is None or not secrets.compare_digest(given.encode(), self.token.encode()):
                 await refuse(scope, send, 401, "viewer token missing or wrong")
                 return
             if from_query and scope["type"] == "http":
-                send = _setting_cookie(send, self.token)
+                send = _setting_cookie(send, self.token, secure=scope.get("scheme") == "https")
         await self.app(scope, receive, send)
+
+    def _write_refusal(self, scope: Scope) -> tuple[int, str] | None:
+        if not self._origin_ok(scope):
+            return 403, (
+                "cross-origin request refused: only this server's own page (or an origin "
+                "given with --allow-origin) may send it"
+            )
+        kind = (_header(scope, b"content-type") or "").split(";", 1)[0].strip().lower()
+        if kind != "application/json":
+            return 415, f"{scope['method']} takes a JSON body (Content-Type: application/json)"
+        return None
 
     def _origin_ok(self, scope: Scope) -> bool:
         origin = _header(scope, b"origin")
         if origin is None:
             return True
+        if origin == "null":  # a sandboxed frame, a file: page, a redirect across sites
+            return False
         host = _header(scope, b"host") or ""
         scheme = "https" if scope.get("scheme") in ("https", "wss") else "http"
-        own = origin_of(f"{scheme}://{host}")
-        return origin_of(origin) in self.allowed | {own}
+        try:
+            own = origin_of(f"{scheme}://{host}")
+            return origin_of(origin) in self.allowed | {own}
+        except ValueError:  # a malformed Origin or Host (a bad port, an open bracket)
+            return False
 
     def _token_of(self, scope: Scope) -> tuple[str | None, bool]:
         query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
@@ -100,8 +140,9 @@ class Gatekeeper:
         return (morsel.value if morsel is not None else None), False
 
 
-def _setting_cookie(send: Send, token: str) -> Send:
-    cookie = f"{TOKEN_COOKIE}={token}; Path=/; HttpOnly; SameSite=Strict".encode("latin-1")
+def _setting_cookie(send: Send, token: str, secure: bool) -> Send:
+    flags = "; Secure" if secure else ""  # over plain HTTP a browser would drop a Secure one
+    cookie = f"{TOKEN_COOKIE}={token}; Path=/; HttpOnly; SameSite=Strict{flags}".encode("latin-1")
 
     async def send_with_cookie(message: Message) -> None:
         if message["type"] == "http.response.start":

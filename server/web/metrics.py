@@ -14,8 +14,10 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Histo
 from prometheus_client.registry import Collector
 
 from ..runtime import Runtime
+from ..runtime.loop_lag import LoopLag
 from ..stream import PROTOCOL_VERSIONS
 from ..stream.buckets import Buckets
+from . import flood, transformation
 from .routes import runtime_of
 
 router = APIRouter()
@@ -32,8 +34,9 @@ def _add(family: HistogramMetricFamily, values: list[str], buckets: Buckets) -> 
 class RuntimeCollector(Collector):
     """Frames, viewers, sources and timings of one Runtime, read when scraped."""
 
-    def __init__(self, runtime: Runtime) -> None:
+    def __init__(self, runtime: Runtime, loop_lag: LoopLag | None = None) -> None:
         self.runtime = runtime
+        self.loop_lag = loop_lag
 
     def collect(self) -> Iterator[CounterMetricFamily | GaugeMetricFamily | HistogramMetricFamily]:
         runtime, hub = self.runtime, self.runtime.hub
@@ -90,11 +93,35 @@ class RuntimeCollector(Collector):
         for protocol in PROTOCOL_VERSIONS:
             viewers.add_metric([str(protocol)], hub.viewers_of(protocol))
         yield viewers
+        closed = CounterMetricFamily(
+            "linkview_viewers_closed",
+            "Viewers closed for sending too many messages or not reading (web/flood.py)",
+            labels=["bound"],
+        )
+        for bound in ("messages", "queued"):
+            closed.add_metric([bound], flood.closed[bound])
+        yield closed
+        yield CounterMetricFamily(
+            "linkview_transformations_refused",
+            "fk, ik and move requests answered 503 (too many at once)",
+            value=transformation.running.refused,
+        )
         delay = _histogram(
             "linkview_sample_to_send_seconds", "From the data layer's sample to each send", []
         )
         _add(delay, [], hub.delay)
         yield delay
+        if self.loop_lag is not None:
+            lag = _histogram(
+                "linkview_event_loop_lag_seconds", "How late the event loop woke (every 0.1 s)", []
+            )
+            _add(lag, [], self.loop_lag.buckets)
+            yield lag
+            yield GaugeMetricFamily(
+                "linkview_event_loop_lag_newest_seconds",
+                "The event loop's newest lateness",
+                value=self.loop_lag.newest,
+            )
 
 
 @router.get("/metrics", include_in_schema=False)
@@ -103,6 +130,7 @@ async def metrics(request: Request) -> Response:
     registry: CollectorRegistry | None = getattr(request.app.state, "metrics", None)
     if registry is None:
         registry = CollectorRegistry()
-        registry.register(RuntimeCollector(runtime_of(request)))
+        lag = getattr(request.app.state, "loop_lag", None)
+        registry.register(RuntimeCollector(runtime_of(request), lag))
         request.app.state.metrics = registry
     return Response(generate_latest(registry), media_type=CONTENT_TYPE_LATEST)

@@ -8,6 +8,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException, Request
 from fastapi.responses import FileResponse, JSONResponse
 
+from ..cell.mesh_files import glb_problem
 from ..paths import STATIC_DIR
 from ..runtime import Runtime
 
@@ -31,7 +32,8 @@ async def mesh(robot: str, link: int, request: Request) -> FileResponse:
     """The GLB of a robot's link (hello gives each link's URL)."""
     found = runtime_of(request).robot(robot)
     path = found.meshes[link] if found is not None and 0 <= link < len(found.meshes) else None
-    if path is None:
+    # Checked when the cell was read, and again now: the file may have changed since.
+    if path is None or glb_problem(path) is not None:
         raise HTTPException(status_code=404, detail=f"no mesh for link {link} of {robot!r}")
     return FileResponse(path, media_type="model/gltf-binary")
 
@@ -42,8 +44,8 @@ async def robots(request: Request) -> list[dict[str, Any]]:
     runtime = runtime_of(request)
     healths = {source.name: source for source in runtime.healths()}  # a replica's too
     out = []
-    for robot in runtime.robots:
-        info = robot.info(runtime.commandable(robot)).model_dump()
+    for robot, shown in zip(runtime.robots, runtime.cell.infos(runtime.commandable), strict=True):
+        info = shown.model_dump()
         source = healths.get(robot.source)
         state = None if source is None else source.robots.get(robot.name)
         raw = None if state is None else state.values
@@ -94,7 +96,7 @@ async def health(request: Request) -> JSONResponse:
         "status": status,
         "time": time.time(),
         "cell": {
-            "path": None if runtime.cell.path is None else str(runtime.cell.path),
+            "path": runtime.cell_name,
             "error": runtime.cell_error,
         },
         "sources": sources,

@@ -2,15 +2,23 @@
 
 Bodies are read as bytes (at most 1 MiB, see ``guards``) and parsed and
 validated in the threadpool with the kinematics: a large request costs its
-sender time, never the event loop that streams to viewers. Models are strict:
-``"0.1"`` or ``true`` where a number belongs is a 422, not a guess.
+sender time, never the event loop that streams to viewers. At most
+``MAX_RUNNING`` of them run at once and ``MAX_WAITING`` wait for their turn;
+past that they are answered 503 with ``Retry-After``, since each running one
+competes with the stream for the interpreter. Models are strict: ``"0.1"``
+or ``true`` where a number belongs is a 422, not a guess.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import time
+from collections.abc import AsyncIterator
 from typing import Annotated, Any, TypeVar
 
-from fastapi import APIRouter, HTTPException, Request
+import orjson
+from fastapi import APIRouter, HTTPException, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -27,6 +35,56 @@ MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
 MAX_LINK_ROWS = 64
 """Rows per /fk call that also asks for every link's pose (a preview draws a few)."""
+CHUNK_ROWS = 500
+"""Rows computed in one go; the thread yields to the event loop between chunks."""
+MAX_RUNNING = 1
+"""Transformation requests computed at once, per process: one core's worth of them, as
+each holds the interpreter in turns with the event loop that streams to viewers."""
+MAX_WAITING = 8
+"""Requests that may wait for one of those; past that they are refused at once."""
+WAIT_S = 2.0
+RETRY_AFTER_S = 1
+
+
+class _Running:
+    """Lets MAX_RUNNING transformation requests run; a few more wait briefly, the rest get 503."""
+
+    def __init__(self) -> None:
+        self._slots: asyncio.Semaphore | None = None  # made in the serving loop
+        self.waiting = 0
+        self.refused = 0
+
+    @contextlib.asynccontextmanager
+    async def slot(self) -> AsyncIterator[None]:
+        if self._slots is None:
+            self._slots = asyncio.Semaphore(MAX_RUNNING)
+        if self.waiting >= MAX_WAITING:
+            raise self._busy()
+        self.waiting += 1
+        try:
+            async with asyncio.timeout(WAIT_S):
+                await self._slots.acquire()
+        except TimeoutError:
+            raise self._busy() from None
+        finally:
+            self.waiting -= 1
+        try:
+            yield
+        finally:
+            self._slots.release()
+
+    def _busy(self) -> HTTPException:
+        self.refused += 1
+        return HTTPException(
+            status_code=503,
+            detail=f"busy: {MAX_RUNNING} transformation requests are being computed and "
+            f"{MAX_WAITING} wait; try again in {RETRY_AFTER_S} s",
+            headers={"Retry-After": str(RETRY_AFTER_S)},
+        )
+
+
+running = _Running()
+"""This process's transformation requests."""
 
 
 class _Body(BaseModel):
@@ -72,38 +130,51 @@ def _robot(request: Request, name: str) -> Robot:
     return robot
 
 
-def _forward(robot: Robot, raw: bytes) -> dict[str, Any]:
+def _forward(robot: Robot, raw: bytes) -> bytes:
     body = _parse(ForwardRequest, raw)
     if body.links and len(body.joints) > MAX_LINK_ROWS:
         raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
-    try:
-        result = transformation.forward(robot, body.joints, body.links)
-    except transformation.TransformInputError as exc:
-        raise HTTPException(status_code=422, detail=str(exc)) from exc
-    return {k: v for k, v in vars(result).items() if v is not None}
+    answer: dict[str, list[Any]] = {}
+    for start in range(0, len(body.joints), CHUNK_ROWS):
+        rows = body.joints[start : start + CHUNK_ROWS]
+        try:
+            part = transformation.forward(robot, rows, body.links)
+        except transformation.TransformInputError as exc:
+            raise HTTPException(status_code=422, detail=str(exc)) from exc
+        for key, value in vars(part).items():
+            if value is not None:
+                answer.setdefault(key, []).extend(value)
+        time.sleep(0)  # lets the event loop's thread take the interpreter between chunks
+    # Encoded here, in the worker thread: FastAPI would encode a returned dict of 10 000
+    # rows on the event loop, where it holds up every viewer's frames.
+    return orjson.dumps(answer)
 
 
-def _inverse(robot: Robot, raw: bytes) -> dict[str, Any]:
+def _inverse(robot: Robot, raw: bytes) -> bytes:
     body = _parse(InverseRequest, raw)
     try:
         result = transformation.inverse(robot, body.tcp, body.joints_ref, body.all)
     except transformation.TransformInputError as exc:
         raise HTTPException(status_code=422, detail=str(exc)) from exc
-    return vars(result)
+    return orjson.dumps(vars(result))
 
 
 @router.post("/{name}/fk")
-async def forward(name: str, request: Request) -> dict[str, Any]:
+async def forward(name: str, request: Request) -> Response:
     """TCP pose and roll-pitch-yaw for each joint row (``ForwardRequest``)."""
-    robot = _robot(request, name)
-    return await run_in_threadpool(_forward, robot, await request.body())
+    robot, raw = _robot(request, name), await request.body()  # read first: a 503 then is clean
+    async with running.slot():
+        body = await run_in_threadpool(_forward, robot, raw)
+    return Response(body, media_type="application/json")
 
 
 @router.post("/{name}/ik")
-async def inverse(name: str, request: Request) -> dict[str, Any]:
+async def inverse(name: str, request: Request) -> Response:
     """Joint solutions for a TCP pose (``InverseRequest``); ``best`` is nearest ``joints_ref``."""
-    robot = _robot(request, name)
-    return await run_in_threadpool(_inverse, robot, await request.body())
+    robot, raw = _robot(request, name), await request.body()
+    async with running.slot():
+        body = await run_in_threadpool(_inverse, robot, raw)
+    return Response(body, media_type="application/json")
 
 
 @router.post("/{name}/move", status_code=202)
@@ -112,7 +183,8 @@ async def move(name: str, request: Request) -> dict[str, Any]:
     robot = _robot(request, name)
     body = _parse(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
     try:
-        await runtime_of(request).move(robot, body.joints)
+        async with running.slot():
+            await runtime_of(request).move(robot, body.joints)
     except MoveError as exc:
         raise HTTPException(status_code=exc.status, detail=str(exc)) from exc
     return {"ok": True, "robot": name, "joints": body.joints}

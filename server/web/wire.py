@@ -10,16 +10,32 @@ is extended with one method, offered to the app as an ASGI extension.
 
 from __future__ import annotations
 
+import logging
 import struct
 from collections.abc import Callable
 
 from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
+from websockets.frames import Frame
 from websockets.http11 import Request
 
 from ..stream.hub import Payload
+from . import flood
+from .flood import MAX_QUEUED_BYTES, MESSAGES_PER_S, MessageBudget
+
+log = logging.getLogger(__name__)
 
 EXTENSION = "linkview.write_frame"
 _TEXT, _BINARY = 0x81, 0x82  # FIN + opcode
+CLOSE_FRAME_ROOM = 256 * 1024
+"""Below this much queued (frames stop at 64 KiB), the close frame is sent after the rest,
+and the connection dropped after ``ABORT_AFTER_S`` if the peer does not take it; above,
+everything is dropped at once."""
+ABORT_AFTER_S = 5.0
+READ_AFTER_CLOSE_BYTES = 1 << 20
+
+
+def _peer(client: tuple[str, int] | None) -> str:
+    return "?" if client is None else f"{client[0]}:{client[1]}"
 
 
 def ws_frames(payload: Payload) -> bytes:
@@ -42,12 +58,80 @@ def ws_frame(payload: str | bytes) -> bytes:
 
 
 class StreamingWebSocketProtocol(WebSocketsSansIOProtocol):
-    """uvicorn's sans-I/O WebSocket protocol that can also write ready-made frames."""
+    """uvicorn's sans-I/O WebSocket protocol that writes ready-made frames, within bounds.
+
+    Each incoming message (pings and pongs included) is paid from the viewer's
+    ``MessageBudget``, and a pong is only written while the viewer's write
+    buffer is under ``MAX_QUEUED_BYTES``; a viewer past either is closed
+    (``flood``).
+    """
+
+    _budget: MessageBudget
+    _read_after_close = -1
+    """Bytes read since the viewer was closed for a bound; -1 while it was not."""
+
+    def data_received(self, data: bytes) -> None:
+        if self._read_after_close >= 0:
+            self._read_after_close += len(data)
+            if self._read_after_close > READ_AFTER_CLOSE_BYTES:
+                self.transport.abort()  # it sends on and on, unheeding: nothing more to say
+                return
+        super().data_received(data)
 
     def handle_connect(self, event: Request) -> None:
+        self._budget = MessageBudget()
         super().handle_connect(event)
         if hasattr(self, "scope"):
             self.scope["extensions"][EXTENSION] = {"write": self.write_frame}
+
+    def handle_cont(self, event: Frame) -> None:
+        if self._within_budget():
+            super().handle_cont(event)
+
+    def handle_text(self, event: Frame) -> None:
+        if self._within_budget():
+            super().handle_text(event)
+
+    def handle_bytes(self, event: Frame) -> None:
+        if self._within_budget():
+            super().handle_bytes(event)
+
+    def handle_pong(self, event: Frame) -> None:
+        if self._within_budget():
+            super().handle_pong(event)
+
+    def handle_ping(self) -> None:
+        if not self._within_budget():
+            return
+        if self.transport.get_write_buffer_size() > MAX_QUEUED_BYTES:
+            self._close_for("queued", "does not read what it asked for (pongs)")
+            return
+        super().handle_ping()
+
+    def _within_budget(self) -> bool:
+        if self.close_sent or self.disconnected:
+            return False  # closing: what it still sends is dropped unread
+        if self._budget.spend():
+            return True
+        self._close_for("messages", f"sends more than {MESSAGES_PER_S:g} messages per second")
+        return False
+
+    def _close_for(self, bound: str, reason: str) -> None:
+        """Close with 1008 and ``reason``; the write buffer is dropped now or within seconds."""
+        flood.closed[bound] += 1
+        log.warning("viewer %s closed: it %s", _peer(self.client), reason)
+        self.conn.send_close(1008, f"viewer {reason}"[:120])
+        self.transport.write(b"".join(self.conn.data_to_send()))
+        self.close_sent = True
+        self._read_after_close = 0
+        self.queue.put_nowait({"type": "websocket.disconnect", "code": 1008, "reason": reason})
+        if self.transport.get_write_buffer_size() > CLOSE_FRAME_ROOM:
+            self.transport.abort()  # behind a backlog the close frame would never arrive
+            return
+        # Reading on until the peer answers the close (uvicorn then closes the transport and
+        # cancels this timer), for up to READ_AFTER_CLOSE_BYTES: closing a socket with
+        # unread data resets it, and the reset can destroy the close frame unread.
+        self.close_timer = self.loop.call_later(ABORT_AFTER_S, self.transport.abort)
 
     def write_frame(self, frame: bytes) -> bool:
         """Write ``frame`` now if the connection is open and keeping up; False if not."""

@@ -1,12 +1,22 @@
 // The REST calls the page makes (server/web/transformation.py): all SI, same origin.
 
+const BUSY_TRIES = 3; // a server busy with others' requests says when to come back (503)
+
 async function post( path, body ) {
 
-	const response = await fetch( path, {
-		method: 'POST',
-		headers: { 'content-type': 'application/json' },
-		body: JSON.stringify( body ),
-	} );
+	let response;
+	for ( let attempt = 1; ; attempt ++ ) {
+
+		response = await fetch( path, {
+			method: 'POST',
+			headers: { 'content-type': 'application/json' },
+			body: JSON.stringify( body ),
+		} );
+		const wait = Number( response.headers.get( 'retry-after' ) );
+		if ( response.status !== 503 || ! ( wait > 0 ) || attempt >= BUSY_TRIES ) break;
+		await new Promise( ( resolve ) => setTimeout( resolve, Math.min( wait, 10 ) * 1000 ) );
+
+	}
 	let answer = null;
 	try {
 
@@ -58,4 +68,11 @@ function move( name, joints ) {
 
 }
 
-export { forward, inverse, move, reason };
+/** Ask the server to measure clearance for the next 10 s (server/web/clearance.py). */
+function wantClearance() {
+
+	return post( '/api/clearance', {} );
+
+}
+
+export { forward, inverse, move, reason, wantClearance };

@@ -1,3 +1,4 @@
+import { ClearanceWarning } from './clearance.js';
 import { ServerClock, nowMs } from './clock.js';
 import { Following } from './following.js';
 import { Hud } from './hud.js';
@@ -28,6 +29,7 @@ class App {
 
 		this.root = root;
 		this.stage = new Stage( root.getElementById( 'viewport' ) );
+		root.getElementById( 'no-webgl' ).hidden = this.stage.webgl;
 		this.robots = new Robots( this.stage.world );
 		this.hud = new Hud( root, {
 			onShow: ( name, on ) => this.setShown( name, on ),
@@ -40,6 +42,7 @@ class App {
 		this.clock = new ServerClock();
 		this.plots = new JointPlots( root.getElementById( 'plots' ) );
 		this.sim = new SimPanel( root, this.stage );
+		this.clearance = new ClearanceWarning( root, this.stage, this.robots );
 		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), this.stage.settings.pixelRatio );
 		this.panels = new Panels( root, ( left, right ) => {
 
@@ -145,6 +148,7 @@ class App {
 			case 'frame': this.clock.observe( message.t_sent, arrival ); this.timeline.noteLive( message.t_source ); this._queue( message, arrival ); break;
 			case 'status': this.hud.setStatus( message ); break;
 			case 'cell': this.hud.setCell( message ); break;
+			case 'clearance': this.clearance.update( message ); break;
 			default: console.warn( 'linkview: unknown message type', message.type );
 
 		}
@@ -252,6 +256,7 @@ class App {
 		this.quality.tick( time );
 		const now = nowMs();
 		this.timeline.tick( time );
+		this.clearance.tick();
 		// While the timeline shows the past, live frames wait (newest only) for Live.
 		for ( const frame of this.timeline.live ? this.robots.applyPending( now ) : [] ) {
 

@@ -49,7 +49,7 @@ async function fetchSummary() {
 /** A window of `kept` from `from` to `to` (unix s) with link poses, decoded. */
 async function fetchWindow( kept, from, to, poses = 'links' ) {
 
-	const query = new URLSearchParams( { kept, from: String( from ), to: String( to ), poses } );
+	const query = new URLSearchParams( { source: kept, from: String( from ), to: String( to ), poses } );
 	const response = await fetch( `/api/history?${query}` );
 	if ( ! response.ok ) throw new Error( `history of ${kept}: HTTP ${response.status}` );
 	return decodeWindow( await response.arrayBuffer() );

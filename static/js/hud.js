@@ -39,6 +39,13 @@ function warningList( warnings ) {
  * warnings), the data sources from
  * `status`, and the banner.
  */
+/** Wall-clock time of unix seconds `t`, as the viewer's clock reads it (HH:MM:SS). */
+function clockTime( t ) {
+
+	return new Date( t * 1000 ).toLocaleTimeString( [], { hour12: false } );
+
+}
+
 class Hud {
 
 	constructor( root, handlers ) {
@@ -184,6 +191,8 @@ class Hud {
 				element( 'span', 'muted', source.state ),
 				element( 'span', 'age', age )
 			);
+			// The controller's address in plain sight: a commissioning engineer checks it first.
+			item.append( element( 'span', 'address', source.url ) );
 			if ( source.error ) item.append( element( 'span', 'error', source.error ) );
 			if ( source.warning ) item.append( element( 'span', 'warning', source.warning ) );
 			this.sourcesEl.append( item );
@@ -284,17 +293,27 @@ class Hud {
 			card.time = now;
 
 		}
-		if ( last ) {
+		// While its controller sends nothing, the last rate and latency would be stale news.
+		const source = this.sources.get( robot.source );
+		const silent = source !== undefined && ( source.state === 'stale' || source.state === 'error' );
+		if ( last && silent ) {
+
+			const age = source.last_sample_age_s;
+			const since = age === null ? 'no data' : `no data for ${age.toFixed( 0 )} s`;
+			const good = view.goodFrame ? ` · last good at ${clockTime( view.goodFrame.t_source )}` : '';
+			setText( card.state, since + good );
+
+		} else if ( last ) {
 
 			const latency = view.latencyMs === null ? '—' : `${view.latencyMs.toFixed( 0 )} ms`;
-			setText( card.state, `seq ${last.seq} · ${card.rate.toFixed( 0 )} frames/s · latency ${latency}` );
+			setText( card.state, `${card.rate.toFixed( 0 )} frames/s · latency ${latency}` );
 
 		} else if ( view.zeroPosed ) {
 
 			setText( card.state, 'no frame yet: shown at its zero pose' );
 
 		}
-		card.card.classList.toggle( 'greyed', view.greyed );
+		card.card.classList.toggle( 'greyed', view.greyed || silent );
 		card.error.hidden = view.error === null;
 		setText( card.error, view.error ?? '' );
 

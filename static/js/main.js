@@ -1,5 +1,16 @@
 import { App } from './app.js';
 
+// Opened with ?token=: the server has set its cookie by now, which every later request
+// carries. The token leaves the address bar, so it is not in the history, a bookmark
+// or a screenshot of the window.
+const address = new URL( window.location.href );
+if ( address.searchParams.has( 'token' ) ) {
+
+	address.searchParams.delete( 'token' );
+	window.history.replaceState( window.history.state, '', address.pathname + address.search + address.hash );
+
+}
+
 const app = new App();
 app.start();
 
@@ -50,7 +61,7 @@ window.linkview = Object.freeze( {
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
 	get plots() {
 
-		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, samples: app.plots.history ? app.plots.history.count : 0 };
+		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, layout: app.plots.layout(), samples: app.plots.history ? app.plots.history.count : 0 };
 
 	},
 	get quality() {
@@ -68,6 +79,12 @@ window.linkview = Object.freeze( {
 	following( name ) {
 
 		return app.following.shown( name );
+
+	},
+	/** The clearance toggle: { on, text, near, highlighted: [[robot, link name], ...] }. */
+	get clearance() {
+
+		return app.clearance.shown();
 
 	},
 	/** The simulation panel: ghosts drawn, which is selected, jog requests sent. */

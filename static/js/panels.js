@@ -22,6 +22,11 @@ class Panels {
 		this.narrow.addEventListener( 'change', this._onNarrow );
 		this._observer = new ResizeObserver( () => this._report() );
 		for ( const { panel } of this.panels ) this._observer.observe( panel );
+		// On a narrow screen an open panel ends above the timeline bar, whose height
+		// depends on how its rows wrap: keep that height in a CSS variable.
+		this._bar = root.querySelector( '.timeline' );
+		this._barObserver = new ResizeObserver( () => this._barSpace() );
+		if ( this._bar ) this._barObserver.observe( this._bar );
 		this._defaults();
 
 	}
@@ -36,12 +41,35 @@ class Panels {
 	setOpen( entry, open ) {
 
 		const { panel, toggle } = entry;
+		// A phone has room for one open panel: it spans the width and the others step
+		// aside (their headers come back when it closes), so no panel covers another's buttons.
+		if ( open && this.narrow.matches ) {
+
+			for ( const other of this.panels ) if ( other !== entry ) this._set( other, false );
+
+		}
+		this._set( entry, open );
+		const anyOpen = this.panels.some( ( e ) => ! e.panel.classList.contains( 'collapsed' ) );
+		document.body.classList.toggle( 'panel-open', anyOpen && this.narrow.matches );
+		this._report();
+
+	}
+
+	_set( entry, open ) {
+
+		const { panel, toggle } = entry;
 		panel.classList.toggle( 'collapsed', ! open );
 		toggle.setAttribute( 'aria-expanded', String( open ) );
 		const what = panel.getAttribute( 'aria-label' ) || 'panel';
 		toggle.setAttribute( 'aria-label', `${open ? 'collapse' : 'expand'} ${what.toLowerCase()}` );
 		toggle.textContent = open ? '−' : '+';
-		this._report();
+
+	}
+
+	_barSpace() {
+
+		const height = this._bar && ! this._bar.hidden ? this._bar.getBoundingClientRect().height : 0;
+		document.documentElement.style.setProperty( '--timeline-space', `${Math.ceil( height )}px` );
 
 	}
 
@@ -71,6 +99,7 @@ class Panels {
 
 		this.narrow.removeEventListener( 'change', this._onNarrow );
 		this._observer.disconnect();
+		this._barObserver.disconnect();
 
 	}
 

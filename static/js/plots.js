@@ -6,7 +6,9 @@ const CAPACITY = 600; // samples per robot: 10 s at up to 55 samples/s
 const MIN_SPACING_MS = 18; // faster sources are thinned: a 300 px plot shows no more
 const MAX_GAP_MS = 50; // at least 20 redraws a second
 const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
-const PLOT_HEIGHT = 50;
+const PLOT_HEIGHT = 66; // px of drawing area per joint (axes and padding come on top)
+const MIN_SPAN = 2; // a still joint gets +-1 deg (or mm) of range, not a flat line at a tick
+const REACH = 0.5; // a limit within this share of the data's span is brought into view
 
 /**
  * The last WINDOW_S seconds of one robot's joints, in a ring buffer: a fixed
@@ -50,6 +52,30 @@ function limitsOf( joint, scale ) {
 
 }
 
+/**
+ * The y range for one joint's window: its data, padded, at least MIN_SPAN wide,
+ * widened to a limit that is within REACH of it so an approach is seen coming.
+ * `current` is kept while the data fit in it and fill a third of it, so the axis
+ * does not twitch at every redraw.
+ */
+function fitRange( lo, hi, limits, current ) {
+
+	if ( ! Number.isFinite( lo ) ) return current;
+	const span = Math.max( hi - lo, MIN_SPAN );
+	if ( current && lo >= current[ 0 ] && hi <= current[ 1 ] && span * 3 >= current[ 1 ] - current[ 0 ] ) return current;
+	const mid = ( lo + hi ) / 2;
+	let min = Math.min( lo, mid - span / 2 ) - span * 0.15;
+	let max = Math.max( hi, mid + span / 2 ) + span * 0.15;
+	if ( limits ) {
+
+		if ( lo - limits[ 0 ] <= span * REACH ) min = Math.min( min, limits[ 0 ] - span * 0.1 );
+		if ( limits[ 1 ] - hi <= span * REACH ) max = Math.max( max, limits[ 1 ] + span * 0.1 );
+
+	}
+	return [ min, max ];
+
+}
+
 // Limits as dashed lines and the last NEAR_LIMIT of the range on each side shaded amber.
 function limitsPlugin( limits, colors ) {
 
@@ -62,6 +88,10 @@ function limitsPlugin( limits, colors ) {
 				const { left, width } = u.bbox;
 				const band = ( limits[ 1 ] - limits[ 0 ] ) * NEAR_LIMIT;
 				ctx.save();
+				// Only the limits within the fitted range: clipped to the drawing area.
+				ctx.beginPath();
+				ctx.rect( left, u.bbox.top, width, u.bbox.height );
+				ctx.clip();
 				ctx.fillStyle = colors.near;
 				for ( const [ a, b ] of [ [ limits[ 0 ], limits[ 0 ] + band ], [ limits[ 1 ] - band, limits[ 1 ] ] ] ) {
 
@@ -107,7 +137,7 @@ class JointPlots {
 		this.container = container;
 		this.history = null;
 		this.color = '#2f6fd6';
-		this._plots = []; // { plot, xs, ys }
+		this._plots = []; // { plot, xs, ys, limits, range }
 		this._last = - Infinity; // when the charts were last redrawn (animation clock, ms)
 		this._frameMs = 16.7; // the animation loop's frame interval, smoothed
 		this._tickAt = null;
@@ -142,26 +172,28 @@ class JointPlots {
 			this.container.append( row );
 			const xs = new Array( CAPACITY ).fill( - WINDOW_S );
 			const ys = new Array( CAPACITY ).fill( null );
-			const pad = limits ? ( limits[ 1 ] - limits[ 0 ] ) * 0.06 : 0;
+			const last = j === history.joints.length - 1;
+			// Every plot has the same y-axis width, so the time axes line up; the last shows them.
 			const plot = new uPlot( {
 				width,
 				height: PLOT_HEIGHT,
 				legend: { show: false },
+				padding: [ 6, 6, last ? null : 6, 0 ], // uPlot's automatic padding took half the height
 				cursor: { show: false },
 				select: { show: false },
 				scales: {
 					x: { time: false, range: [ - WINDOW_S, 0 ] },
-					y: limits ? { range: [ limits[ 0 ] - pad, limits[ 1 ] + pad ] } : { auto: true },
+					y: { auto: false, range: [ - 1, 1 ] }, // fitted to the window in redraw()
 				},
 				axes: [
-					{ show: j === history.joints.length - 1, stroke: colors.axis, size: 22, font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false } },
-					{ stroke: colors.axis, size: 40, font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false }, splits: limits ? () => limits : undefined },
+					{ show: last, stroke: colors.axis, size: 18, label: 'time (s)', labelSize: 12, labelFont: '10px system-ui', font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false } },
+					{ stroke: colors.axis, size: 44, space: 18, font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false }, values: ( u, splits ) => splits.map( ( v ) => `${+ v.toFixed( 2 )}` ) },
 				],
 				series: [ {}, { stroke: color, width: 1.5, points: { show: false }, spanGaps: false } ],
 				plugins: [ limitsPlugin( limits, colors ) ],
 			}, [ xs, ys ], row );
 			plot.root.setAttribute( 'aria-label', `plot of ${joint.name} over the last ${WINDOW_S} s` );
-			this._plots.push( { plot, xs, ys } );
+			this._plots.push( { plot, xs, ys, limits, range: null, outer: PLOT_HEIGHT, fitted: false } );
 
 		} );
 
@@ -193,7 +225,20 @@ class JointPlots {
 		const oldest = nowMs - WINDOW_S * 1000;
 		// Chronological copy into the fixed arrays; unused leading slots are gaps at the left edge.
 		const lead = CAPACITY - count;
-		for ( const [ j, { plot, xs, ys } ] of this._plots.entries() ) {
+		for ( const [ j, entry ] of this._plots.entries() ) {
+
+			const { plot, xs, ys } = entry;
+			if ( ! entry.fitted && plot.bbox.height > 0 ) {
+
+				// uPlot's height is the whole chart, laid out after a microtask: once it is,
+				// add back what the axes and padding took from the drawing area.
+				entry.fitted = true;
+				entry.outer += PLOT_HEIGHT - plot.bbox.height / uPlot.pxRatio;
+				plot.setSize( { width: plot.width, height: entry.outer } );
+
+			}
+			let lo = Infinity;
+			let hi = - Infinity;
 
 			for ( let i = 0; i < lead; i ++ ) {
 
@@ -209,10 +254,22 @@ class JointPlots {
 				xs[ at ] = Math.max( ( t - nowMs ) / 1000, - WINDOW_S );
 				const value = history.values[ slot * n + j ];
 				ys[ at ] = t < oldest || Number.isNaN( value ) ? null : value;
+				if ( ys[ at ] !== null ) {
+
+					lo = Math.min( lo, value );
+					hi = Math.max( hi, value );
+
+				}
 
 			}
 			plot.setData( [ xs, ys ], false );
-			plot.redraw( false, false );
+			const range = fitRange( lo, hi, entry.limits, entry.range );
+			if ( range !== entry.range ) {
+
+				entry.range = range;
+				plot.setScale( 'y', { min: range[ 0 ], max: range[ 1 ] } ); // redraws
+
+			} else plot.redraw( false, false );
 
 		}
 		this.redraws ++;
@@ -224,7 +281,7 @@ class JointPlots {
 	resize() {
 
 		const width = Math.max( 160, this.container.clientWidth || 280 );
-		for ( const { plot } of this._plots ) plot.setSize( { width, height: PLOT_HEIGHT } );
+		for ( const { plot, outer } of this._plots ) plot.setSize( { width, height: outer } );
 
 	}
 
@@ -233,6 +290,19 @@ class JointPlots {
 		for ( const { plot } of this._plots ) plot.destroy();
 		this._plots = [];
 		this.container.replaceChildren();
+
+	}
+
+	/** For tests: each plot's drawing height (CSS px), y range and limits, in display units. */
+	layout() {
+
+		return this._plots.map( ( { plot, limits, ys } ) => ( {
+			data: [ Math.min( ...ys.filter( ( v ) => v !== null ) ), Math.max( ...ys.filter( ( v ) => v !== null ) ) ],
+			height: plot.bbox.height / uPlot.pxRatio,
+			left: plot.bbox.left / uPlot.pxRatio,
+			y: [ plot.scales.y.min, plot.scales.y.max ],
+			limits,
+		} ) );
 
 	}
 

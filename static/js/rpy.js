@@ -1,4 +1,4 @@
-// Roll, pitch and yaw as seed 004 defines them (server/kinematics/rpy.py): rotations
+// Roll, pitch and yaw as the KUKA LBR iiwa's Transformation service defines them (server/kinematics/rpy.py): rotations
 // about the fixed X, Y and Z axes in that order, R = Rz(yaw) Ry(pitch) Rx(roll), radians.
 // The /fk endpoint answers in the same convention; the page's TCP readout uses this.
 // A plain ES module (no three.js), so node can check it against the server's formulas.

@@ -1,6 +1,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
+import { NoRenderer, hasWebGL } from './no_webgl.js';
 
 // The robot data is Z up (metres); make every camera and light agree.
 THREE.Object3D.DEFAULT_UP.set( 0, 0, 1 );
@@ -44,6 +45,7 @@ class Stage {
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
 		this.camera.position.set( 1.6, - 2.2, 1.4 );
 
+		this.webgl = hasWebGL(); // without it, nothing is drawn and everything else still runs
 		this.renderer = this._makeRenderer();
 		this._makeEnvironment();
 
@@ -74,6 +76,7 @@ class Stage {
 
 	_makeRenderer() {
 
+		if ( ! this.webgl ) return new NoRenderer();
 		const renderer = new THREE.WebGLRenderer( { antialias: this.settings.antialias, alpha: true } );
 		renderer.setPixelRatio( this.settings.pixelRatio );
 		renderer.toneMapping = THREE.NeutralToneMapping;
@@ -89,6 +92,8 @@ class Stage {
 	// Soft image-based light from a neutral room; the room is Y up, so turn it to Z up.
 	_makeEnvironment() {
 
+		this.environment = null;
+		if ( ! this.webgl ) return; // the room's light is baked by the GPU
 		this.pmrem = new THREE.PMREMGenerator( this.renderer );
 		const room = new RoomEnvironment();
 		this.environment = this.pmrem.fromScene( room, 0.04 ).texture;
@@ -102,6 +107,7 @@ class Stage {
 	_disposeEnvironment() {
 
 		this.scene.environment = null;
+		if ( ! this.environment ) return;
 		this.environment.dispose();
 		this.pmrem.dispose();
 
@@ -208,7 +214,7 @@ class Stage {
 		this.renderer.shadowMap.enabled = next.shadows;
 		this.sun.castShadow = next.shadows;
 		this.floor.visible = next.shadows;
-		this.scene.environment = next.environment ? this.environment : null;
+		this.scene.environment = next.environment ? this.environment : null; // null without WebGL
 		// Without the room's light the scene would be dark: the sky light makes up for it.
 		this.hemi.intensity = next.environment ? 0.6 : 1.5;
 		if ( resize ) {

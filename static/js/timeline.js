@@ -218,7 +218,9 @@ class Timeline {
 
 		const dt = this._tickAt === null ? 0 : Math.min( time - this._tickAt, 250 ) / 1000;
 		this._tickAt = time;
-		if ( time - this._summaryAt >= SUMMARY_EVERY_MS ) {
+		// While the server is away the socket says so; polling it meanwhile would only
+		// add a refused request to the console every few seconds.
+		if ( time - this._summaryAt >= SUMMARY_EVERY_MS && this.app.connected ) {
 
 			this._summaryAt = time;
 			fetchSummary().then( ( summary ) => {

@@ -40,7 +40,7 @@ def test_same_robots_nodes_links_and_bases() -> None:
     assert positioner.link_names == ("base", "tilt", "table")
     np.testing.assert_allclose(kin12.base, [-0.75, 0.35, 0, 0, 0, 0, 1], atol=1e-15)
     np.testing.assert_allclose(iiwa.base, [0, 0, 0, 0, 0, 0, 1], atol=1e-15)
-    np.testing.assert_allclose(positioner.base, [0.85, 0, 0, 0, 0, 0, 1], atol=1e-15)
+    np.testing.assert_allclose(positioner.base, [1.35, 0, 0, 0, 0, 0, 1], atol=1e-15)
     assert all(m is not None and m.is_file() for r in cell.robots for m in r.meshes)
 
 

@@ -5,7 +5,7 @@ viewer in a background thread reads the protocol-2 stream throughout and
 timestamps every frames message; each test attacks from the main thread and
 checks the frames that arrived during its attack against the rate the same
 viewer got before any attack (a ratio: absolute frame rates on a shared
-machine are benchmark figures, ``bench/hostile_clients.py``), and the server's RSS.
+machine are benchmark figures, ``bench/hostile.py``), and the server's RSS.
 """
 
 from __future__ import annotations
@@ -67,8 +67,8 @@ class Server:
         self.port = int(url.rsplit(":", 1)[1])
         self.quiet_fps = quiet_fps
         """Frames messages per second the viewer got before any attack."""
-        self.windows: list[tuple[float, float]] = []
-        """(frames/s, seconds) of each attack window so far."""
+        self.windows: list[tuple[float, float, float]] = []
+        """(frames/s, seconds, RSS growth in MiB) of each attack window so far."""
 
     def rss_mib(self) -> float:
         for line in Path(f"/proc/{self.pid}/status").read_text().splitlines():
@@ -98,11 +98,11 @@ class _Window:
         server, viewer = self.server, self.server.viewer
         assert viewer.is_alive(), f"the reading viewer died: {viewer.error!r}"
         fps = viewer.fps(self.start, end)
-        server.windows.append((fps, end - self.start))
+        self.rss_growth = server.rss_mib() - self.rss_before
+        server.windows.append((fps, end - self.start, self.rss_growth))
         assert fps >= MIN_SHARE * server.quiet_fps, (
             f"reading viewer fell to {fps:.1f} frames/s from {server.quiet_fps:.1f} before"
         )
-        self.rss_growth = server.rss_mib() - self.rss_before
 
 
 def _pid_with_arguments(part: bytes) -> int:
@@ -146,13 +146,13 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
 def _answer(sock: socket.socket, limit: int = 65536) -> bytes:
     """What the server says before it closes (or the first 64 KiB)."""
     sock.settimeout(10)
-    data = b""
+    data = bytearray()  # grown in place: bytes += would copy a 2 MB answer 500 times
     try:
-        while len(data) < limit and (chunk := sock.recv(4096)):
+        while len(data) < limit and (chunk := sock.recv(65536)):
             data += chunk
     except (ConnectionResetError, TimeoutError):
         pass
-    return data
+    return bytes(data)
 
 
 def _status(answer: bytes) -> int:
@@ -269,3 +269,86 @@ def test_foreign_origins_and_bad_tokens_are_refused_without_slowing_viewers(
                 except InvalidStatus as exc:
                     refused.append(exc.response.status_code)
     assert refused == [expected for _ in range(25) for _, expected in cases]
+
+
+def _ws_handshake(port: int) -> socket.socket:
+    """A raw WebSocket connection to /ws, handshake done, nothing read after it."""
+    sock = socket.create_connection(("127.0.0.1", port))
+    sock.sendall(
+        (
+            f"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n"
+            "Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+            f"Sec-WebSocket-Version: 13\r\nAuthorization: Bearer {TOKEN}\r\n\r\n"
+        ).encode()
+    )
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += sock.recv(1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    return sock
+
+
+def _masked(opcode: int, payload: bytes) -> bytes:
+    """A client frame (masked with a zero key, which leaves the payload as it is)."""
+    return struct.pack("!BB", 0x80 | opcode, 0x80 | len(payload)) + b"\0\0\0\0" + payload
+
+
+def _metric(server: Server, name: str) -> float:
+    import urllib.request
+
+    request = urllib.request.Request(server.url + "/metrics", headers=AUTH)
+    with urllib.request.urlopen(request, timeout=10) as response:
+        text = response.read().decode()
+    return sum(float(line.rsplit(" ", 1)[1]) for line in text.splitlines() if line.startswith(name))
+
+
+def test_a_ping_flood_that_never_reads_is_cut_off_and_its_memory_freed(server: Server) -> None:
+    closed_before = _metric(server, 'linkview_viewers_closed_total{bound="messages"}')
+    ping = _masked(0x9, b"p" * 125)  # each asks for a 127-byte pong
+    sock = _ws_handshake(server.port)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # and never reads one
+    sent = 0
+    with server.attacked() as window:
+        deadline = time.monotonic() + 12
+        try:
+            while time.monotonic() < deadline:
+                sock.sendall(ping * 64)
+                sent += 64
+        except (BrokenPipeError, ConnectionResetError):
+            pass  # cut off: what it sent after that was refused
+        peak = server.rss_mib() - window.rss_before
+    sock.close()
+    assert time.monotonic() < deadline, f"still connected after {sent} pings"
+    assert peak < 20, f"RSS grew by {peak:.0f} MiB during the flood"
+    assert window.rss_growth < 20
+    assert _metric(server, 'linkview_viewers_closed_total{bound="messages"}') > closed_before
+
+
+def test_a_message_flood_is_closed_with_1008(server: Server) -> None:
+    ws_url = server.url.replace("http", "ws") + "/ws"
+    with server.attacked() as window:
+        with connect_sync(ws_url, additional_headers=AUTH) as ws:
+            try:
+                for _ in range(5000):
+                    ws.send("x" * 100)
+                while True:
+                    ws.recv(timeout=10)
+            except ConnectionClosed as exc:
+                closed = exc
+    assert closed.rcvd is not None and closed.rcvd.code == 1008, closed
+    assert "messages per second" in closed.rcvd.reason
+    assert window.rss_growth < 20
+
+
+def test_heavy_transformation_requests_are_bounded_and_the_stream_holds(server: Server) -> None:
+    import json
+    import subprocess
+    import sys
+
+    client = [sys.executable, "-m", "tests.e2e._heavy_client", str(server.port), TOKEN]
+    with server.attacked():
+        done = subprocess.run(client, capture_output=True, text=True, timeout=120, check=True)
+    answers = json.loads(done.stdout)
+    statuses = sorted(status for status, _ in answers)
+    assert set(statuses) == {200, 503}, statuses  # some computed, the rest told to wait
+    assert all(retry == "1" for status, retry in answers if status == 503), answers

@@ -188,3 +188,48 @@ def test_obj_materials_are_part_of_the_key(tmp_path: Path) -> None:
     assert second != first
     red_channel, green, _, _ = colour(glb(second))
     assert green > red_channel
+
+
+def one_mesh_robot(folder: Path, mesh: Path) -> Path:
+    urdf = folder / "one.urdf"
+    urdf.write_text(
+        f'<robot name="one"><link name="a"><visual><geometry><mesh filename="{mesh}"/>'
+        "</geometry></visual></link></robot>"
+    )
+    return urdf
+
+
+CYLINDER_MM_BOUNDS = [[-0.05, -0.05, 0.0], [0.05, 0.05, 0.3]]  # link1.dae, r 50 mm, 300 mm high
+
+
+def test_a_collada_file_with_a_broken_material_keeps_its_shape(tmp_path: Path) -> None:
+    # As Blender 2.79 exported ANYmal's foot: an effect's sampler names a surface that
+    # is not in the file. pycollada then drops the node; the shape must stay.
+    text = (MESH_DESCRIPTION / "meshes" / "link1.dae").read_text()
+    sampler = (
+        '<newparam sid="tex-sampler"><sampler2D><source>missing-surface</source></sampler2D>'
+        "</newparam><technique"
+    )
+    text = text.replace("<technique", sampler, 1).replace(
+        "<diffuse>\n              <color>0.8627450980392157 0.11764705882352941 "
+        "0.11764705882352941 1.0</color>",
+        '<diffuse>\n              <texture texture="tex-sampler" texcoord="UVMap"/>',
+    )
+    assert "missing-surface" in text and 'texture="tex-sampler"' in text
+    broken = tmp_path / "broken_material.dae"
+    broken.write_text(text)
+    assert not trimesh.load(broken, force="scene").geometry  # as trimesh alone reads it
+    meshes = link_meshes(load_urdf(one_mesh_robot(tmp_path, broken)), tmp_path / "cache")
+    assert meshes.warnings == ()
+    np.testing.assert_allclose(glb(meshes.files["a"]).bounds, CYLINDER_MM_BOUNDS, atol=TOL)
+
+
+def test_a_collada_file_with_a_text_node_past_ten_megabytes_converts(tmp_path: Path) -> None:
+    # Unitree's B1 trunk.dae holds one float array of 10 MB: past lxml's default limit.
+    text = (MESH_DESCRIPTION / "meshes" / "link1.dae").read_text()
+    big = text.replace("</float_array>", " " * 10_000_100 + "</float_array>", 1)
+    huge = tmp_path / "huge.dae"
+    huge.write_text(big)
+    meshes = link_meshes(load_urdf(one_mesh_robot(tmp_path, huge)), tmp_path / "cache")
+    assert meshes.warnings == ()
+    np.testing.assert_allclose(glb(meshes.files["a"]).bounds, CYLINDER_MM_BOUNDS, atol=TOL)

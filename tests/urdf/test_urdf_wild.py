@@ -20,6 +20,7 @@ from server.urdf import (
     MeshGeometry,
     SphereGeometry,
     StandInGeometry,
+    UrdfError,
     link_meshes,
     load_urdf,
 )
@@ -200,6 +201,51 @@ def test_packages_are_found_by_walking_up_from_the_description(tmp_path: Path) -
     # The cell's packages come first.
     elsewhere = put_mesh(tmp_path / "elsewhere")
     assert mesh_path(urdf, {"gripper": tmp_path / "elsewhere"}) == elsewhere
+
+
+def test_an_empty_package_host_is_read_as_the_package_path(tmp_path: Path) -> None:
+    # example-robot-data's Talos writes "package:///example-robot-data/robots/...".
+    stl = put_mesh(tmp_path / "share" / "robot_data")
+    urdf = write(
+        tmp_path / "share" / "robot_data" / "urdf" / "r.urdf",
+        mesh_user("robot_data").replace("package://", "package:///"),
+    )
+    assert mesh_path(urdf) == stl
+
+
+MIMIC_OF_NOTHING = """<robot name="hand">
+  <link name="palm"/><link name="f1"/><link name="f2"/>
+  <joint name="q1" type="revolute">
+    <parent link="palm"/><child link="f1"/><axis xyz="0 0 1"/><limit lower="-1" upper="1"/>
+  </joint>
+  <joint name="q2" type="revolute">
+    <parent link="f1"/><child link="f2"/><origin xyz="0.1 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1"/>
+    <mimic joint="renamed_q1" multiplier="2"/>
+  </joint>
+</robot>
+"""
+
+
+def test_a_mimic_of_an_unknown_joint_is_a_joint_of_its_own_with_a_warning(
+    tmp_path: Path,
+) -> None:
+    robot = load_urdf(write(tmp_path / "hand.urdf", MIMIC_OF_NOTHING))
+    (warning,) = robot.warnings
+    assert "hand.urdf, line 9: joint 'q2' mimics 'renamed_q1'" in warning, warning
+    assert robot.joint_names == ("q1", "q2")  # q2 is followed, not derived from q1
+    poses, ok = robot.chain.link_poses(np.array([0.0, 0.5]))
+    assert ok.all()
+    np.testing.assert_allclose(poses[2][:2, 0], [np.cos(0.5), np.sin(0.5)], atol=1e-12)
+
+
+def test_a_nameless_robot_loads_but_one_without_links_is_refused(tmp_path: Path) -> None:
+    nameless = load_urdf(write(tmp_path / "n.urdf", MIMIC_OF_NOTHING.replace(' name="hand"', "")))
+    assert any("<robot> without a name" in w for w in nameless.warnings), nameless.warnings
+    # ur_description's ur3.urdf in example-robot-data: an empty <robot>.
+    empty = write(tmp_path / "e.urdf", '<?xml version="1.0"?>\n<robot xmlns:xacro="x">\n</robot>')
+    with pytest.raises(UrdfError, match=r"e.urdf, line 2: <robot> holds no <link>"):
+        load_urdf(empty)
 
 
 STAND_IN = """<robot name="s">

@@ -71,6 +71,8 @@ def test_a_token_link_opens_the_page_over_protocol_2_and_other_origins_read_noth
         watched = watch(page)
         open_page(page, f"{url}/?token={TOKEN}&quality=5", TIMEOUT_MS)
         assert "protocol 2" in page.locator("#session").inner_text()
+        # The cookie set, the token leaves the address bar (history, bookmarks, screenshots).
+        assert page.url == f"{url}/?quality=5", page.url
         cookies = {c["name"]: c for c in context.cookies(url)}
         cookie = cookies["linkview_token"]
         assert cookie["httpOnly"] and cookie["sameSite"] == "Strict"

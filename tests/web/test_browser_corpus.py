@@ -141,7 +141,10 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
         assert card.locator("summary").inner_text() == "1 warning"
         assert not card.locator("li").is_visible()  # folded until asked for
         card.locator("summary").click()
-        assert card.locator("li").inner_text() == missing
+        # As the page shows it: the files named relative to the cell's folder.
+        shown = card.locator("li").inner_text()
+        assert shown == loaded.shown(missing) and str(tmp_path) not in shown, shown
+        assert shown.startswith("broken.urdf, line 2: link 'base': mesh file meshes/base.stl")
         card.scroll_into_view_if_needed()
         page.screenshot(path=str(ARTIFACTS / "corpus-warning.png"))
         assert page.locator("details.robot-warnings").count() == 1

@@ -142,6 +142,14 @@ def test_a_controller_that_is_away_then_has_an_outage(browser: Browser, tmp_path
             page.wait_for_function("() => window.linkview.robotState('iiwa7').greyed")
             assert "no live data" in page.evaluate("window.linkview.robotState('iiwa7').note")
             page.wait_for_timeout(1500)  # the outage lasts; status messages keep coming
+            # Each card says how long it has had no data, not its rate from before.
+            card = page.locator(".robot-state").nth(1)
+            page.wait_for_function(
+                "() => /^no data for [1-9][0-9]* s · last good at \\d\\d:\\d\\d:\\d\\d$/"
+                ".test(document.querySelectorAll('.robot-state')[1].textContent)",
+                timeout=TIMEOUT_MS,
+            )
+            assert "frames/s" not in card.inner_text() and "latency" not in card.inner_text()
             before = frames_applied(page)
             set_faults(mock, outage=False)
             wait_frames_after(page, before)
@@ -150,6 +158,11 @@ def test_a_controller_that_is_away_then_has_an_outage(browser: Browser, tmp_path
             )
             assert page.inner_text("#pill-controllers") == "controller: connected"
             page.wait_for_function("() => !window.linkview.robotState('iiwa7').greyed")
+            page.wait_for_function(
+                "() => document.querySelectorAll('.robot-state')[1].textContent"
+                ".includes('frames/s · latency')",
+                timeout=TIMEOUT_MS,
+            )
             log_ = banner_log(page)
     assert log_[0] == "" and log_[-1] == "", log_
     assert len(log_) - 1 <= 2, f"the banner changed {len(log_) - 1} times: {log_}"

@@ -142,3 +142,17 @@ async def test_strings_and_booleans_where_numbers_belong_are_422(body: Any) -> N
         ik = {"tcp": ["0.1", 0, 0, 0, 0, 0, 1]}
         async with http.post(base + "/api/robots/kin12/ik", json=ik) as resp:
             assert resp.status == 422
+
+
+async def test_metrics_show_how_late_the_event_loop_runs() -> None:
+    async with running_server(Settings()) as base:
+        await asyncio.sleep(0.5)  # a few wake-ups of the 0.1 s probe
+        status, text, _ = await get(base + "/metrics")
+    assert status == 200
+    counts = [
+        float(line.rsplit(" ", 1)[1])
+        for line in text.splitlines()
+        if line.startswith("linkview_event_loop_lag_seconds_count")
+    ]
+    assert counts and counts[0] >= 2, counts
+    assert "linkview_event_loop_lag_newest_seconds " in text

@@ -19,11 +19,13 @@ from pydantic import BaseModel
 
 from server.protocol import (
     MESSAGE_TYPES,
+    Clearance,
     Frame,
     Frames2,
     Hello,
     JointInfo,
     LinkInfo,
+    NearLinks,
     RobotFrame2,
     RobotInfo,
     SourceStatus,
@@ -40,6 +42,8 @@ MODELS: dict[str, type[BaseModel]] = {
     "joint": JointInfo,
     "link": LinkInfo,
     "source": SourceStatus,
+    "clearance": Clearance,
+    "near": NearLinks,
 }
 
 # `frame.links`, `${source.name}`, `hello.robots.forEach` (first field only); not

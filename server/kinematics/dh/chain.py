@@ -148,9 +148,11 @@ class DHChain:
         return all_along_last((arr >= lim[:, 0]) & (arr <= lim[:, 1]))
 
     def inverse(
-        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None
+        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None, limited: bool = True
     ) -> tuple[Array, BoolArray]:
         """Joints ``(..., n)`` rad within the limits putting the flange on ``pose`` ``(..., 4, 4)``.
+
+        ``limited=False`` ignores the limits: where is a pose reached at all.
 
         Numerical (damped least squares from ``q_ref`` and seeded random starts,
         see ``_numeric_ik``); among the solutions found, the one nearest
@@ -159,6 +161,8 @@ class DHChain:
         finite; there ``q`` is ``q_ref`` clipped to the limits (or mid-range).
         """
         lim = self.joint_limits()
+        if not limited:  # where it is reached at all, whatever the limits say
+            lim = np.full_like(lim, np.inf) * [-1.0, 1.0]
         rows = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         q, finite = rows.start, rows.finite
         ok = np.zeros(len(q), dtype=bool)

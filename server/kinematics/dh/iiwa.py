@@ -152,7 +152,7 @@ class LBRiiwa(DHChain):
         )
 
     def inverse(
-        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None
+        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None, limited: bool = True
     ) -> tuple[Array, BoolArray]:
         """Joints ``(..., 7)`` rad putting the flange on ``pose`` ``(..., 4, 4)``, near ``q_ref``.
 
@@ -160,8 +160,11 @@ class LBRiiwa(DHChain):
         within the limits, the tutorial's quality function picks the one with the
         smallest sum of |q - q_ref| (``q_ref`` wrapped to [-pi, pi)). Where
         none qualifies, the numerical ``DHChain.inverse`` (all seven joints
-        free) takes over; ``ok`` is False where that fails too.
+        free) takes over; ``ok`` is False where that fails too. ``limited=False``
+        is the numerical inverse without limits (``inverse_all`` lists them all).
         """
+        if not limited:
+            return super().inverse(pose, q_ref, limited=False)
         target = np.asarray(pose, dtype=np.float64)
         lead = target.shape[:-2]
         ref = np.zeros(7) if q_ref is None else np.asarray(q_ref, dtype=np.float64)

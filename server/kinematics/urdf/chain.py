@@ -159,9 +159,11 @@ class UrdfChain:
         return tip, self._spread @ twists
 
     def inverse(
-        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None
+        self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None, limited: bool = True
     ) -> tuple[Array, BoolArray]:
         """Joints ``(..., n)`` (rad, m) within the limits that put the tip on ``pose``.
+
+        ``limited=False`` ignores the limits: where is a pose reached at all.
 
         ``pose`` is ``(..., 4, 4)`` in the root-link frame.
 
@@ -174,6 +176,8 @@ class UrdfChain:
         0 for continuous joints).
         """
         lim = self.limits
+        if not limited:  # where it is reached at all, whatever the limits say
+            lim = np.full_like(lim, np.inf) * [-1.0, 1.0]
         todo = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         lead, flat_target, ref, finite = todo.lead, todo.targets, todo.ref, todo.finite
         q = todo.start
