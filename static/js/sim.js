@@ -8,6 +8,7 @@ import { RAD_TO_DEG, displayScale, formatJoint } from './units.js';
 const JOG_INTERVAL_MS = 150; // at most one jog move per this, and never two in flight
 const HANDS_OFF_MS = 1500; // sliders follow the robot again this long after the last touch
 const ARRIVED_M = 0.001; // "there": TCP within 1 mm of the target
+const LEFT_M = 0.005; // after arriving, this far off means the robot has moved on
 const FREE_RANGE = { rad: Math.PI, m: 1 }; // slider half-range for joints without limits
 const TARGET_FIELDS = [ [ 'x', 'mm' ], [ 'y', 'mm' ], [ 'z', 'mm' ], [ 'roll', '°' ], [ 'pitch', '°' ], [ 'yaw', '°' ] ];
 
@@ -25,6 +26,7 @@ class SimPanel {
 
 		this.stage = stage;
 		this.section = root.getElementById( 'sim' );
+		this.offEl = root.getElementById( 'sim-off' ); // what a robot that may not move shows
 		this.jogEl = root.getElementById( 'jog' );
 		this.solutionsEl = root.getElementById( 'solutions' );
 		this.statusEl = root.getElementById( 'sim-status' );
@@ -108,6 +110,7 @@ class SimPanel {
 		this.gizmo.detach();
 		this.view = view && view.info.commandable ? view : null;
 		this.section.hidden = this.view === null;
+		this.offEl.hidden = ! view || view.info.commandable;
 		setText( this.statusEl, '' );
 		this.moveButton.disabled = true;
 		this._buildJog();
@@ -411,11 +414,21 @@ class SimPanel {
 
 		}
 		const moving = this.moving;
-		if ( moving && ! moving.arrived && frame.tcp.length === 7 ) {
+		if ( moving && frame.tcp.length === 7 ) {
 
 			const d = Math.hypot( frame.tcp[ 0 ] - moving.tcp[ 0 ], frame.tcp[ 1 ] - moving.tcp[ 1 ], frame.tcp[ 2 ] - moving.tcp[ 2 ] );
 			moving.closest = Math.min( moving.closest, d );
-			if ( d <= ARRIVED_M ) {
+			if ( moving.arrived ) {
+
+				// The status follows the pose: "Arrived" only while it is still there.
+				if ( d > LEFT_M ) {
+
+					this.moving = null;
+					setText( this.statusEl, `Moved on: the TCP is ${( d * 1000 ).toFixed( 0 )} mm from the target; the demo cycle (or the controller) moves it again.` );
+
+				}
+
+			} else if ( d <= ARRIVED_M ) {
 
 				moving.arrived = true;
 				setText( this.statusEl, `Arrived: the TCP is ${( d * 1000 ).toFixed( 2 )} mm from the target.` );

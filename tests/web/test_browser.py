@@ -306,6 +306,12 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
         page.wait_for_timeout(200)
     assert math.dist(reached, target) <= 1e-6, (reached, target)
     assert page.evaluate("window.linkview.sim.ghosts") >= 2  # the preview stays until a new solve
+    # The embedded mock goes back to its demo cycle after a while: the status follows the
+    # pose, it does not keep saying "Arrived".
+    page.wait_for_function(
+        "() => document.getElementById('sim-status').textContent.startsWith('Moved on')",
+        timeout=TIMEOUT_MS,
+    )
 
     _type_target(page, {"x": 5000.0})
     page.click("#solve")

@@ -104,6 +104,8 @@ def test_a_controller_that_is_away_then_has_an_outage(browser: Browser, tmp_path
         # A real controller (not an embedded mock, no --allow-commands): nothing may move it.
         assert page.evaluate("window.linkview.sim.robot") is None
         assert page.is_hidden("#sim")
+        off = page.get_by_role("region", name="Simulation (off)")
+        assert off.is_visible() and "--allow-commands" in off.inner_text()  # and how to enable it
         # Before any frame the robots are drawn at their zero pose, greyed.
         page.wait_for_function(
             "() => ['kin12', 'iiwa7', 'positioner'].every(n => {"
