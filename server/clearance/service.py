@@ -87,7 +87,7 @@ class ClearanceService:
     def measure(self, cell: tuple[Robot, ...], values: Mapping[str, Array | None]) -> Clearance:
         """The clearance of ``cell``'s robots at joint ``values`` (node units, by robot name)."""
         start = time.perf_counter()
-        if self._checker is None or cell != self._robots:  # a new cell: read its meshes
+        if self._checker is None or cell is not self._robots:  # a new cell: read its meshes
             self._checker, self._robots = _checker_of(cell), cell
         checker = self._checker
         by_name = {robot.name: robot for robot in cell}

@@ -69,6 +69,16 @@ class Batch:
     """``(m, n)``, writable."""
 
 
+def unlimited(limits: Array) -> Array:
+    """Limits shaped like ``limits`` ``(n, 2)`` that hold nothing back: (-inf, +inf) each.
+
+    An inverse asked this way says where a pose is reached at all, to tell a pose
+    reached only outside the joint limits from one out of reach.
+    """
+    out: Array = np.full_like(limits, np.inf) * [-1.0, 1.0]
+    return out
+
+
 def batch(
     pose: npt.ArrayLike,
     q_ref: npt.ArrayLike | None,

@@ -41,7 +41,7 @@ def serial_rotary_inverse(
         raise ValueError(f"axis group {group!r}: inverse needs one chain of rotary axes")
     limits = np.array([ax["q_limits"] for ax in axes], dtype=np.float64)
     if not limited:
-        limits = np.full_like(limits, np.inf) * [-1.0, 1.0]
+        limits = _numeric_ik.unlimited(limits)
     target = np.asarray(pose, dtype=np.float64)
     lead = target.shape[:-2]
     ref = (

@@ -11,10 +11,14 @@ machine are benchmark figures, ``bench/hostile.py``), and the server's RSS.
 from __future__ import annotations
 
 import asyncio
+import json
 import socket
 import struct
+import subprocess
+import sys
 import threading
 import time
+import urllib.request
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -294,7 +298,6 @@ def _masked(opcode: int, payload: bytes) -> bytes:
 
 
 def _metric(server: Server, name: str) -> float:
-    import urllib.request
 
     request = urllib.request.Request(server.url + "/metrics", headers=AUTH)
     with urllib.request.urlopen(request, timeout=10) as response:
@@ -341,9 +344,6 @@ def test_a_message_flood_is_closed_with_1008(server: Server) -> None:
 
 
 def test_heavy_transformation_requests_are_bounded_and_the_stream_holds(server: Server) -> None:
-    import json
-    import subprocess
-    import sys
 
     client = [sys.executable, "-m", "tests.e2e._heavy_client", str(server.port), TOKEN]
     with server.attacked():

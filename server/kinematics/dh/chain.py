@@ -162,7 +162,7 @@ class DHChain:
         """
         lim = self.joint_limits()
         if not limited:  # where it is reached at all, whatever the limits say
-            lim = np.full_like(lim, np.inf) * [-1.0, 1.0]
+            lim = _numeric_ik.unlimited(lim)
         rows = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         q, finite = rows.start, rows.finite
         ok = np.zeros(len(q), dtype=bool)

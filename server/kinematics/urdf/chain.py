@@ -177,7 +177,7 @@ class UrdfChain:
         """
         lim = self.limits
         if not limited:  # where it is reached at all, whatever the limits say
-            lim = np.full_like(lim, np.inf) * [-1.0, 1.0]
+            lim = _numeric_ik.unlimited(lim)
         todo = _numeric_ik.batch(pose, q_ref, lim, self._joints)
         lead, flat_target, ref, finite = todo.lead, todo.targets, todo.ref, todo.finite
         q = todo.start
