@@ -187,14 +187,15 @@ def processed(before: dict[str, Any], after: dict[str, Any]) -> str:
 def main() -> None:
     """Run every K, print the table and (unless quick) write it to docs/benchmarks.md."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--robots", default="10,25,50,100,150", help="robot counts (comma list)")
+    parser.add_argument("--robots", help="robot counts (comma list; default 10,25,50,100,150)")
     parser.add_argument("--seconds", type=float, default=5.0, help="measuring window per K")
     parser.add_argument("--warmup", type=float, default=4.0, help="after every source is live")
-    parser.add_argument("--quick", action="store_true", help="smoke run: K = 5, 2 s")
+    parser.add_argument("--quick", action="store_true", help="no docs; default K = 5, 2 s")
     parser.add_argument("--title", default="Robots per core", help="section title")
     args = parser.parse_args()
-    if args.quick:
+    if args.quick and args.robots is None:
         args.robots, args.seconds, args.warmup = "5", 2.0, 1.0
+    args.robots = args.robots or "10,25,50,100,150"
     load0, cases = os.getloadavg(), []
     for k in map(int, args.robots.split(",")):
         cases.append(run_case(k, args.warmup, args.seconds))

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
 import random
@@ -53,6 +54,9 @@ class Sample:
     t_source: float
     """Unix time (s) the data layer sampled the values."""
     values: dict[str, float | Exception]
+    received: int = 1
+    """The device's samples this one stands for: a reader that falls behind keeps the newest
+    values of several (latest wins) rather than queueing them."""
 
 
 REPROBE_S = 60.0
@@ -255,6 +259,8 @@ class _Latest:
         self._opened = time.monotonic()
         self._t: float | None = None
         self._changed = False
+        self._cycles = 0
+        """Publish cycles (distinct timestamps) gathered since the last sample."""
 
     def add(self, item: Update | Keepalive) -> None:
         if isinstance(item, Update):
@@ -262,6 +268,8 @@ class _Latest:
                 return
             self._values[item.node] = item.value
         if item.t_source is not None:
+            # The events of one publish cycle share its timestamp: a new one is a new cycle.
+            self._cycles += item.t_source != self._t
             self._t = item.t_source if self._t is None else max(self._t, item.t_source)
         # A keepalive says "nothing changed until t": a fresh sample of the same values.
         self._changed = True
@@ -273,10 +281,11 @@ class _Latest:
         complete = len(self._values) == len(self._nodes)
         if not complete and time.monotonic() - self._opened < self._grace_s:
             return None  # the initial events of some nodes are still on their way
-        self._changed = False
+        self._changed, received, self._cycles = False, max(self._cycles, 1), 0
         missing = DataLayerError("the subscription sent no value for this node")
         values = {n: self._values.get(n, missing) for n in self._nodes}
-        return _checked(Sample(self._t if self._t is not None else time.time(), values))
+        t_source = self._t if self._t is not None else time.time()
+        return _checked(Sample(t_source, values, received))
 
 
 async def _subscribe(
@@ -371,7 +380,7 @@ async def _poll(
         period_s,
         how,
     )
-    pacer = Pacer(period_s)
+    pacer, skipped = Pacer(period_s), 0
     while events is None or not events.due():
         if bulk is not None and not use_bulk and bulk.due():
             bulk.retry()
@@ -390,7 +399,9 @@ async def _poll(
         if use_bulk and bulk is not None:
             bulk.worked()
         interruptions.succeeded()
-        yield sample
+        # A tick skipped because we were late is a sample the device had and we did not take.
+        yield dataclasses.replace(sample, received=1 + pacer.skipped - skipped)
+        skipped = pacer.skipped
         await pacer.wait()
 
 

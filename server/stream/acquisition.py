@@ -126,8 +126,14 @@ class Acquisition:
         """Publish status when the derived state changes (e.g. stale) and once a second."""
         while True:
             await asyncio.sleep(STATE_CHECK_S)
+            load_changed = self.health.roll_window()
+            if load_changed:
+                news = self.health.overloaded or "all samples processed again"
+                level = logging.WARNING if self.health.overloaded else logging.INFO
+                log.log(level, "data source %s: %s", self.health.name, news)
             state = self.health.current_state()
-            if state != self._state_sent or time.monotonic() - self._status_sent >= STATUS_EVERY_S:
+            due = time.monotonic() - self._status_sent >= STATUS_EVERY_S
+            if load_changed or state != self._state_sent or due:
                 if state == "stale" and self._state_sent != "stale":
                     log.warning("data source %s: %s", self.health.name, self.health.status().error)
                 self.publish_status()
@@ -135,7 +141,7 @@ class Acquisition:
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
         self.tap.sample(self._seq, sample)
-        if self.health.mark_sample():
+        if self.health.mark_sample(sample.received):
             self.publish_status()
         start = time.perf_counter()
         frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
