@@ -106,3 +106,11 @@ async def test_an_event_stream_outlives_a_busy_loop() -> None:
             for _ in range(10):
                 await anext(samples)
             assert c.requests == requests, "the stream was taken for dead and reopened"
+
+
+def test_a_replica_passes_on_what_its_workers_counted() -> None:
+    # A replica makes no frames itself: its sources carry the workers' verdict only.
+    health = SourceHealth("c0", "http://127.0.0.1:1")
+    health.overloaded = "overloaded: 3 of 12 samples processed, 12 frames/s per robot"
+    summary = load_summary([health, SourceHealth("c1", "http://127.0.0.1:2")])
+    assert summary["overloaded"] == f"c0: {health.overloaded}"

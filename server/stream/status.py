@@ -180,11 +180,15 @@ def load_summary(sources: list[SourceHealth]) -> dict[str, object]:
     processed = sum(s.last_window[1] for s in sources)
     rates = [s.rate_hz for s in sources if s.rate_hz is not None]
     text = None
-    if any(s.overloaded for s in sources):
+    overloaded = [s for s in sources if s.overloaded]
+    if overloaded and rates:
         text = (
             f"overloaded: {processed} of {plural(received, 'sample')} processed, "
             f"{float(np.median(rates)):.0f} frames/s per robot (slowest {min(rates):.0f})"
         )
+    elif overloaded:  # a replica: the workers count, and say so per source
+        text = f"{overloaded[0].name}: {overloaded[0].overloaded}"
+        text += f" (and {plural(len(overloaded) - 1, 'other source')})" * (len(overloaded) > 1)
     return {
         "overloaded": text,
         "received": sum(s.received for s in sources),
