@@ -24,10 +24,15 @@ PERIOD_S = 0.1
 
 
 class Mark(NamedTuple):
-    """An instant, and the lateness summed up to it (both s, monotonic clock)."""
+    """An instant, and the lateness of ``clock`` summed up to it (both s, monotonic clock)."""
 
     at: float
     late: float
+    clock: Lateness
+
+    def on_time_s(self) -> float:
+        """Seconds since this mark during which the loop was on time."""
+        return self.clock.on_time_since(self)
 
 
 class Lateness:
@@ -59,7 +64,7 @@ class Lateness:
     def mark(self) -> Mark:
         """Now, to measure on-time seconds from (``on_time_since``)."""
         now = time.monotonic()
-        return Mark(now, self.late_so_far(now))
+        return Mark(now, self.late_so_far(now), self)
 
     def on_time_since(self, mark: Mark) -> float:
         """Seconds since ``mark`` during which the loop was on time (elapsed less lateness)."""
@@ -114,11 +119,10 @@ class PatientTimeout:
     async def __aenter__(self) -> PatientTimeout:
         await self._timeout.__aenter__()
         if self.budget_s != float("inf"):
-            clock, loop = lateness(), asyncio.get_running_loop()
-            mark = clock.mark()
+            loop, mark = asyncio.get_running_loop(), lateness().mark()
 
             def check() -> None:
-                left = self.budget_s - clock.on_time_since(mark)
+                left = self.budget_s - mark.on_time_s()
                 if left <= 0.0:
                     self._timeout.reschedule(loop.time())  # expires at once
                 else:

@@ -226,8 +226,7 @@ class EventStream:
         self._client = client
         self._parser = SseParser()
         self.dead_after_s = dead_after_s
-        self._clock = lateness()
-        self._alive = self._clock.mark()
+        self._alive = lateness().mark()
         """When the last valid event came: silence is counted from here, on-time seconds only."""
         self._junk_bytes = 0
         self._junk: str | None = None
@@ -246,7 +245,7 @@ class EventStream:
     async def _next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
         # Silence counts only while our loop was on time: a busy process reads late,
         # and that is no fault of the device (see server.lateness).
-        left = self.dead_after_s - self._clock.on_time_since(self._alive)
+        left = self.dead_after_s - self._alive.on_time_s()
         try:
             async with asyncio.timeout(max(min(timeout_s, left), 0.0)):
                 chunk = await self._response.content.readany()
@@ -273,14 +272,14 @@ class EventStream:
                     self._client.redact.error(item.value)
                 items.append(item)
         if items:
-            self._alive, self._junk_bytes, self._junk = self._clock.mark(), 0, None
+            self._alive, self._junk_bytes, self._junk = lateness().mark(), 0, None
         elif self._dead():
             raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
         return items
 
     def _dead(self) -> bool:
         """True when no valid event came for ``dead_after_s`` of on-time loop."""
-        return self._clock.on_time_since(self._alive) >= self.dead_after_s
+        return self._alive.on_time_s() >= self.dead_after_s
 
     def _why_dead(self) -> str:
         if self._junk_bytes == 0:

@@ -78,7 +78,7 @@ class SourceHealth:
         """Seconds since the last sample during which our event loop was on time."""
         if self._last_mark is None:
             return self.age()
-        return lateness().on_time_since(self._last_mark)
+        return self._last_mark.on_time_s()
 
     def current_state(self) -> str:
         """The state as of now: ``connected`` turns ``stale`` when samples stop coming."""
