@@ -31,6 +31,7 @@ from collections.abc import AsyncGenerator, AsyncIterator
 from dataclasses import dataclass
 from typing import Literal
 
+from ..lateness import Mark, lateness
 from ..text import plural
 from .client import DataLayerClient
 from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update
@@ -222,16 +223,17 @@ class _Interruptions:
         self._policy = policy
         self._worked = False
         self._attempt = 0
-        self._since: float | None = None
+        self._since: Mark | None = None
+        """When this streak of failures began (its length counts our on-time loop only)."""
 
     def succeeded(self) -> None:
         self._worked, self._attempt, self._since = True, 0, None
 
     async def failed(self, exc: DataLayerError) -> None:
         """Sleep before the next attempt, or raise ``exc`` if it is no passing interruption."""
-        now = time.monotonic()
-        self._since = now if self._since is None else self._since
-        if not (self._worked and _transient(exc)) or now - self._since > self._policy.give_up_s:
+        self._since = lateness().mark() if self._since is None else self._since
+        too_long = self._since.on_time_s() > self._policy.give_up_s
+        if not (self._worked and _transient(exc)) or too_long:
             raise exc
         delay = self._policy.delay(self._attempt)
         level = logging.INFO if self._attempt == 0 else logging.DEBUG  # news once per streak
