@@ -52,6 +52,7 @@ COLUMNS = {
     "delivered frames/s per robot (min)": "{fps_min:.1f}",
     "(median)": "{fps_median:.1f}",
     "made frames/s per robot (median)": "{made_median:.1f}",
+    "sent/s per robot": "{sent_hz}",
     "samples made into frames": "{processed}",
     "sample→receipt p50 ms": "{p50_ms:.0f}",
     "p99 ms": "{p99_ms:.0f}",
@@ -165,6 +166,7 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         "made_median": float(np.median(made_fps)),
         "made_min": min(made_fps),
         "processed": processed(body0, body1),
+        "sent_hz": sent_hz(body0, body1, elapsed, robots),
         "p50_ms": p50,
         "p99_ms": p99,
         "lag_ms": lag,
@@ -173,6 +175,14 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         "error": states.count("error"),
         "errors": sorted({s["error"] for s in body1["sources"] if s["state"] == "error"}),
     }
+
+
+def sent_hz(before: dict[str, Any], after: dict[str, Any], seconds: float, robots: int) -> str:
+    """Samples per second each controller sent, as the server counted them (if it does)."""
+    if "samples" not in after:
+        return "not counted"
+    sent = after["samples"]["received"] - before["samples"]["received"]
+    return f"{sent / seconds / robots:.1f}"
 
 
 def processed(before: dict[str, Any], after: dict[str, Any]) -> str:
@@ -211,8 +221,10 @@ def main() -> None:
         f"protocol-2 viewer on CPU {OTHER_CPU}; the machine is shared with other jobs. "
         f"{args.warmup:g} s of warm-up after every source is connected, {args.seconds:g} s "
         "measured. Delivered: frames per robot the viewer received; made: samples per robot "
-        "the server made into frames (/api/health); samples made into frames: the server's "
-        "count of samples processed against those the controllers sent; states from "
+        "the server made into frames (/api/health); sent: samples per robot the controllers "
+        "sent, as the server counted them (below 50: the mocks, one core for all, fall "
+        "behind); samples made into frames: the server's count of samples processed against "
+        "those the controllers sent (a source that falls behind keeps the newest); states from "
         "/api/health at the end of the window. CPU: utime + stime over the window, 100 % = one "
         f"core. Load average (1, 5 min) {load0[0]:.2f}, {load0[1]:.2f} before, "
         f"{load1[0]:.2f}, {load1[1]:.2f} after."
