@@ -10,6 +10,7 @@ server must be healthy again without a restart.
 from __future__ import annotations
 
 import asyncio
+import json
 import os
 import statistics
 import subprocess
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import aiohttp
+from websockets.asyncio.client import connect
 
 from tests.conftest import free_port, running_mock
 
@@ -116,6 +118,18 @@ def frames(body: dict[str, Any]) -> dict[str, int]:
     return {robot["name"]: robot["frames"] for robot in body["robots"]}
 
 
+async def page_is_told(base: str) -> bool:
+    """Whether a viewer gets a status message saying a source is overloaded (as the page does)."""
+    async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(60):
+        while True:
+            message = json.loads(await ws.recv())
+            if message["type"] == "status" and any(
+                str(s.get("overloaded") or "").startswith("overloaded: ")
+                for s in message["sources"]
+            ):
+                return True
+
+
 async def test_overload_slows_every_robot_evenly_and_recovers(tmp_path: Path) -> None:
     cell = tmp_path / "cell" / "cell.toml"  # a folder of its own: the server watches it
     cell.parent.mkdir()
@@ -152,6 +166,7 @@ async def test_overload_slows_every_robot_evenly_and_recovers(tmp_path: Path) ->
         assert median > 0, made
         assert min(made.values()) >= 0.7 * median, made
         assert last["status"] == "overloaded", (last["status"], last["samples"])
+        assert await page_is_told(base), "no status message said 'overloaded' to the page"
 
         # The load goes: three sources left, at 10 Hz. Healthy again without a restart.
         cell.write_text(cell_text(urls[:3], period_ms=100))
