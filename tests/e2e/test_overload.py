@@ -167,6 +167,18 @@ async def test_overload_slows_every_robot_evenly_and_recovers(tmp_path: Path) ->
         assert min(made.values()) >= 0.7 * median, made
         assert last["status"] == "overloaded", (last["status"], last["samples"])
         assert await page_is_told(base), "no status message said 'overloaded' to the page"
+        async with http.get(base + "/metrics") as resp:
+            metrics = await resp.text()
+        counted = {
+            line.split("{", 1)[0]: float(line.rsplit(" ", 1)[1])
+            for line in metrics.splitlines()
+            if line.startswith("linkview_samples_") and 'source="c0"' in line
+        }
+        received, made = (
+            counted["linkview_samples_received_total"],
+            counted["linkview_samples_processed_total"],
+        )
+        assert 0 < made < received, counted
 
         # The load goes: three sources left, at 10 Hz. Healthy again without a restart.
         cell.write_text(cell_text(urls[:3], period_ms=100))
