@@ -32,6 +32,8 @@ class SourceDefaults:
     allow_commands: bool = False
     history_s: float = 600.0
     """Seconds of samples every source keeps (see server.history)."""
+    sample_cost_s: float = 0.0
+    """CPU seconds wasted per sample (a test knob, see Settings.sample_cost_s)."""
 
 
 @dataclass
@@ -111,7 +113,12 @@ async def start_source(
     client.warning = check_base_url(url)  # plain http to another machine: credentials in clear
     health = SourceHealth(name=config.name, url=url, mock=mock is not None)
     period = config.period_s or defaults.period_s
-    poll = PollSettings(period, config.mode or defaults.mode, keepalive_s=defaults.keepalive_s)
+    poll = PollSettings(
+        period,
+        config.mode or defaults.mode,
+        keepalive_s=defaults.keepalive_s,
+        sample_cost_s=defaults.sample_cost_s,
+    )
     tap = None if history is None else history.source(config.name, nodes_of(robots), period)
     acquisition = Acquisition(client, robots, hub, health, poll, tap=tap)
     return RunningSource(
