@@ -10,27 +10,27 @@ const _toLink = new THREE.Matrix4();
 const _part = new THREE.Matrix4();
 
 /**
- * One geometry for the parts of a link: `parts` are `[mesh, geometry, color]`
- * with `mesh` somewhere below `link`; `geometry` replaces the mesh's own (its
+ * One geometry for the parts of a link (`node`, its Object3D): `parts` are
+ * `[mesh, geometry, color]` with `mesh` somewhere below `node`; `geometry` replaces the mesh's own (its
  * simplified copy). Positions, normals and colours only; null without parts.
  */
-function mergedLinkGeometry( link, parts ) {
+function mergedLinkGeometry( node, parts ) {
 
 	if ( parts.length === 0 ) return null;
-	link.updateWorldMatrix( true, true );
-	_toLink.copy( link.matrixWorld ).invert();
+	node.updateWorldMatrix( true, true );
+	_toLink.copy( node.matrixWorld ).invert();
 	const pieces = parts.map( ( [ mesh, geometry, color ] ) => {
 
-		const source = geometry.index ? geometry.toNonIndexed() : geometry;
+		const flat = geometry.index ? geometry.toNonIndexed() : geometry;
 		const piece = new THREE.BufferGeometry();
-		piece.setAttribute( 'position', source.attributes.position.clone() );
-		if ( source.attributes.normal ) piece.setAttribute( 'normal', source.attributes.normal.clone() );
+		piece.setAttribute( 'position', flat.attributes.position.clone() );
+		if ( flat.attributes.normal ) piece.setAttribute( 'normal', flat.attributes.normal.clone() );
 		else piece.computeVertexNormals();
 		piece.applyMatrix4( _part.multiplyMatrices( _toLink, mesh.matrixWorld ) );
 		const colors = new Float32Array( piece.attributes.position.count * 3 );
 		for ( let i = 0; i < colors.length; i += 3 ) colors.set( [ color.r, color.g, color.b ], i );
 		piece.setAttribute( 'color', new THREE.BufferAttribute( colors, 3 ) );
-		if ( source !== geometry ) source.dispose();
+		if ( flat !== geometry ) flat.dispose();
 		return piece;
 
 	} );
