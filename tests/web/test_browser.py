@@ -40,7 +40,8 @@ NOT_NETWORK = ("data", "blob", "about")
 def server_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """``python -m server`` on a free loopback port for the whole module."""
     log = tmp_path_factory.mktemp("server") / "server.log"
-    with server_process(free_port(), log) as url:
+    # A short hold of a commanded pose keeps the Move test quick (the default is 30 s).
+    with server_process(free_port(), log, env={"LINKVIEW_MOCK_HOLD_S": "3"}) as url:
         yield url
 
 
@@ -289,9 +290,11 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
 
     page.click("#move")
     page.wait_for_function(
-        "() => document.getElementById('sim-status').textContent.startsWith('Arrived')",
+        "() => document.getElementById('sim-status').textContent.startsWith('Arrived')"
+        " && document.getElementById('sim-status').textContent"
+        ".includes('Holding the commanded pose (demo cycle resumes in ')",
         timeout=TIMEOUT_MS,
-    )
+    )  # the mock holds it for the time hello announced (3 s here), and the page says so
     # The TCP of the joints the page shows, by the server's own FK, is on the target typed:
     # the solution is exact (some 1e-8 m), 1 um leaves room for float32 joints on the wire.
     # "Arrived" is said within a tolerance a person can see; the arm settles on the
@@ -306,10 +309,15 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
         page.wait_for_timeout(200)
     assert math.dist(reached, target) <= 1e-6, (reached, target)
     assert page.evaluate("window.linkview.sim.ghosts") >= 2  # the preview stays until a new solve
-    # The embedded mock goes back to its demo cycle after a while: the status follows the
-    # pose, it does not keep saying "Arrived".
+    # The embedded mock goes back to its demo cycle after the hold: the status follows the
+    # pose, it does not keep saying "Arrived", and keeps following it.
     page.wait_for_function(
-        "() => document.getElementById('sim-status').textContent.startsWith('Moved on')",
+        "() => document.getElementById('sim-status').textContent.startsWith('Demo cycle resumed')",
+        timeout=TIMEOUT_MS,
+    )
+    page.wait_for_function(
+        "() => /the TCP is ([0-9]{3,}) mm from the target/.test("
+        "document.getElementById('sim-status').textContent)",
         timeout=TIMEOUT_MS,
     )
 
