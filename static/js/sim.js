@@ -3,7 +3,7 @@ import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { forward, inverse, move, reason } from './api.js';
 import { element, setText } from './dom.js';
 import { quaternionFromRpy, rpyFromQuaternion } from './rpy.js';
-import { RAD_TO_DEG, displayScale, formatJoint } from './units.js';
+import { RAD_TO_DEG, displayScale, fixed, formatJoint } from './units.js';
 
 const JOG_INTERVAL_MS = 150; // at most one jog move per this, and never two in flight
 const HANDS_OFF_MS = 1500; // sliders follow the robot again this long after the last touch
@@ -353,10 +353,17 @@ class SimPanel {
 			radio.value = String( i );
 			radio.disabled = ! answer.within_limits[ i ];
 			radio.addEventListener( 'change', () => this.select( i ) );
-			const text = row.map( ( value, j ) => formatJoint( value, joints[ j ] ) ).join( ' ' );
-			label.append( radio, element( 'span', 'joints-text', `#${i + 1} ${text}` ) );
-			if ( ! answer.within_limits[ i ] ) label.append( element( 'span', 'outside', 'outside the limits' ) );
-			label.title = `distance from the current joints: ${Math.sqrt( row.reduce( ( s, v, j ) => s + ( v - current[ j ] ) ** 2, 0 ) ).toFixed( 3 )}`;
+			// Which configuration, how far from now and whether allowed; the raw joints in the tooltip.
+			const name = answer.configurations ? answer.configurations[ i ] : `configuration ${i + 1}`;
+			const within = answer.within_limits[ i ];
+			label.append(
+				radio,
+				element( 'span', 'configuration', name ),
+				element( 'span', 'distance', largestMove( row, current, joints ) ),
+				element( 'span', within ? 'inside' : 'outside', within ? 'within limits' : 'outside the limits' ),
+			);
+			const text = row.map( ( value, j ) => `${joints[ j ].name} ${formatJoint( value, joints[ j ] )}` ).join( ', ' );
+			label.title = `#${i + 1} ${name}: ${text}`;
 			item.append( label );
 			this.solutionsEl.append( item );
 
@@ -446,6 +453,26 @@ class SimPanel {
 		this.marker.removeFromParent();
 
 	}
+
+}
+
+/**
+ * How far joints `row` are from `current` (SI, hello order), as a person reads it: the largest
+ * single joint move, in degrees for rotary joints and millimetres for linear ones.
+ */
+function largestMove( row, current, joints ) {
+
+	const largest = { rad: 0, m: 0 };
+	row.forEach( ( value, j ) => {
+
+		const unit = joints[ j ].unit === 'm' ? 'm' : 'rad';
+		largest[ unit ] = Math.max( largest[ unit ], Math.abs( value - current[ j ] ) );
+
+	} );
+	const parts = [];
+	if ( joints.some( ( joint ) => joint.unit !== 'm' ) ) parts.push( `${fixed( largest.rad * RAD_TO_DEG )}°` );
+	if ( joints.some( ( joint ) => joint.unit === 'm' ) ) parts.push( `${fixed( largest.m * 1000 )} mm` );
+	return `largest joint move ${parts.join( ', ' )}`;
 
 }
 

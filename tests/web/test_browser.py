@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -284,6 +285,19 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
     assert sim["ghosts"] >= 2 and sim["selected"] >= 0, sim  # the iiwa reaches it several ways
     assert page.locator("#solutions input[type=radio]:checked").count() == 1
     assert "reach the target" in page.inner_text("#sim-status")
+    # Each configuration by its name, how far each is from now and whether it is allowed;
+    # the raw joint angles only in the tooltip.
+    rows = page.locator("#solutions li label")
+    names = [rows.nth(i).locator(".configuration").inner_text() for i in range(rows.count())]
+    assert len(names) == len(set(names)) == sim["ghosts"], names
+    flags = r"shoulder (front|back) · elbow [+−] · wrist (no-flip|flip)"
+    assert all(re.fullmatch(flags, name) for name in names), names
+    for i in range(rows.count()):
+        row = rows.nth(i)
+        assert re.fullmatch(r"largest joint move \d+\.\d°", row.locator(".distance").inner_text())
+        allowed = row.locator(".inside, .outside").inner_text()
+        assert allowed in ("within limits", "outside the limits")
+        assert (row.get_attribute("title") or "").count("°") == 7  # the raw joints, in the tooltip
     page.check("#gizmo-on")  # the target can be dragged in the view too
     _screenshot(page, "ghosts.png")
     page.uncheck("#gizmo-on")
