@@ -155,7 +155,7 @@ def test_joint_plots_are_drawn_and_move(viewer: Watched) -> None:
     page.select_option("#selected-robot", "iiwa7")
     page.wait_for_function("() => window.linkview.plots.robot === 'iiwa7'")
     assert page.locator("#plots canvas").count() == 7
-    assert page.locator("#plots figcaption").first.inner_text() == "a1 (°)"
+    assert page.locator("#plots .plot-title").first.inner_text() == "a1 (°)"
     before = page.evaluate("window.linkview.plots.redraws")
     first = _plot_pixels(page)
     page.wait_for_timeout(600)
@@ -195,9 +195,53 @@ def test_joint_plots_are_tall_aligned_and_fitted_to_their_data(viewer: Watched) 
                 assert not y0 <= limit <= y1, plot
         narrower += (y1 - y0) < (limits[1] - limits[0]) / 2
     assert narrower >= 3, layout  # the demo moves most joints over far less than their range
-    captions = page.locator("#plots figcaption").all_inner_texts()
+    captions = page.locator("#plots .plot-title").all_inner_texts()
     assert all(c.endswith(("(°)", "(mm)")) for c in captions), captions  # units on every y axis
     _screenshot(page, "plots_fitted.png")
+
+
+def test_velocity_traces_and_one_plot_enlarged(viewer: Watched) -> None:
+    page = viewer.page
+    page.select_option("#selected-robot", "iiwa7")
+    page.wait_for_function("() => window.linkview.plots.layout.length === 7")
+    assert all(p["traces"] == 1 for p in page.evaluate("window.linkview.plots.layout"))
+    page.check("#plot-velocity")
+    # A second (velocity) trace on every plot, from the samples' differences, with its unit.
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.length === 7"
+        " && window.linkview.plots.layout.every(p => p.traces === 2 && p.velocity !== null)",
+        timeout=TIMEOUT_MS,
+    )
+    title = page.locator("#plots .plot-title").first.inner_text()
+    assert title == "a1 (°) · velocity (°/s, dashed)", title
+    # The demo moves the iiwa's joints at up to 60 °/s: velocities of that order, not 0, not 1e4.
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.some(p => Math.max(-p.velocity[0], p.velocity[1]) > 5)",
+        timeout=TIMEOUT_MS,
+    )
+    for plot in page.evaluate("window.linkview.plots.layout"):
+        assert max(-plot["velocity"][0], plot["velocity"][1]) < 1000, plot
+    _screenshot(page, "plots_velocity.png")
+    page.uncheck("#plot-velocity")
+    page.wait_for_function("() => window.linkview.plots.layout.every(p => p.traces === 1)")
+
+    # Enlarge a4's plot: it alone fills the panel's height; the same button brings all back.
+    small = page.evaluate("window.linkview.plots.layout[3].height")
+    page.click("button[aria-label='enlarge the plot of a4']")
+    page.wait_for_function(
+        f"() => window.linkview.plots.layout.length === 1"
+        f" && window.linkview.plots.layout[0].height > 3 * {small}",
+        timeout=TIMEOUT_MS,
+    )
+    assert page.evaluate("window.linkview.plots.layout[0].joint") == 3
+    assert page.locator("#plots canvas").count() == 1
+    _screenshot(page, "plot_enlarged.png")
+    page.click("#plots button.plot-size")
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.length === 7"
+        " && window.linkview.plots.layout.every(p => p.height < 100)",
+        timeout=TIMEOUT_MS,
+    )
 
 
 def test_hiding_a_robot_removes_it(viewer: Watched) -> None:
