@@ -307,6 +307,30 @@ def test_view_presets_focus_and_home(viewer: Watched) -> None:
     assert labels == [True, True, True]  # every robot is on screen
 
 
+def test_world_axes_and_grid_spacing_are_labelled(viewer: Watched) -> None:
+    page = viewer.page
+    page.keyboard.press("Home")  # the iso view of everything
+    page.wait_for_timeout(500)  # the camera's damping settles
+    labels = page.evaluate("window.linkview.orientation")
+    assert [label["text"] for label in labels] == ["X", "Y", "Z", "grid 250 mm"], labels
+    assert all(label["inView"] for label in labels), labels
+    # Drawn where they are: each label's own colour around its place on screen (the letters
+    # in the axes' red, green and blue; the grid's spacing in dark grey on the light floor).
+    shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+    colours = {
+        "X": (224, 65, 47),
+        "Y": (47, 158, 68),
+        "Z": (47, 111, 214),
+        "grid 250 mm": (74, 82, 96),
+    }
+    for label in labels:
+        x, y = round(label["x"]), round(label["y"])
+        box = np.asarray(shot.crop((x - 20, y - 14, x + 20, y + 14)), dtype=np.float64)
+        near = np.abs(box - colours[label["text"]]).max(axis=-1) < 40
+        assert near.sum() >= 15, (label, int(near.sum()))
+    _screenshot(page, "orientation.png")
+
+
 def _type_target(page: Page, values: dict[str, float]) -> None:
     for key, value in values.items():
         page.fill(f"#target-{key}", f"{value:.1f}")
