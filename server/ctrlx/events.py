@@ -37,7 +37,7 @@ class InvalidEvent(StreamEnded):
     """One event we cannot use (malformed JSON, an update naming no node); the stream may go on."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SseEvent:
     """One server-sent event: its type, id and (joined) data lines."""
 
@@ -70,18 +70,13 @@ class SseParser:
 
     def feed(self, chunk: bytes) -> list[SseEvent]:
         """The events completed by ``chunk``."""
-        data, pos = self._buffer + chunk, 0
+        data = self._buffer + chunk if self._buffer else chunk
         events: list[SseEvent] = []
         try:
-            while (cut := _line_end(data, pos)) is not None:
-                end, after = cut
-                if end - pos > self.max_line:
-                    raise self._too_long()
-                self._line(data[pos:end].decode("utf-8", "replace"), events)
-                pos = after
-            self._buffer = data[pos:]
-            if len(self._buffer) > self.max_line:
-                raise self._too_long()
+            if b"\r" in data:
+                self._feed_any_line_ends(data, events)
+            else:
+                self._feed_lf(data, events)
         except StreamEnded:
             # The traceback keeps this frame alive until a garbage collection; what it held
             # (up to a line and an event) must not live on with it.
@@ -89,6 +84,39 @@ class SseParser:
             self._buffer, self._event, self._data, self._size = b"", "", [], 0
             raise
         return events
+
+    def _feed_lf(self, data: bytes, events: list[SseEvent]) -> None:
+        """LF line ends only, as every data layer we know sends: one split, in C.
+
+        This runs for every event of every source (seven per sample of a 7-axis
+        arm); finding line ends one by one in Python cost four times as much.
+        Cutting at the last LF is safe for UTF-8: no multi-byte sequence holds
+        that byte.
+        """
+        end = data.rfind(b"\n")
+        self._buffer = data[end + 1 :]
+        if len(self._buffer) > self.max_line:
+            raise self._too_long()
+        if end < 0:
+            return
+        line = self._line
+        for text in data[:end].decode("utf-8", "replace").split("\n"):
+            if len(text) > self.max_line:
+                raise self._too_long()
+            line(text, events)
+
+    def _feed_any_line_ends(self, data: bytes, events: list[SseEvent]) -> None:
+        """CRLF, LF or CR line ends (the WHATWG rules), one line at a time."""
+        pos = 0
+        while (cut := _line_end(data, pos)) is not None:
+            end, after = cut
+            if end - pos > self.max_line:
+                raise self._too_long()
+            self._line(data[pos:end].decode("utf-8", "replace"), events)
+            pos = after
+        self._buffer = data[pos:]
+        if len(self._buffer) > self.max_line:
+            raise self._too_long()
 
     def _too_long(self) -> StreamEnded:
         return StreamEnded(
@@ -101,10 +129,11 @@ class SseParser:
                 events.append(SseEvent(self._event or "message", self._id, "\n".join(self._data)))
             self._event, self._data, self._size = "", [], 0
             return
-        if line.startswith(":"):
+        if line[0] == ":":
             return  # a comment; some servers send them as heartbeats
         name, _, value = line.partition(":")
-        value = value[1:] if value.startswith(" ") else value
+        if value[:1] == " ":
+            value = value[1:]
         if name == "event":
             self._event = value.strip()
         elif name == "data":
@@ -151,7 +180,7 @@ class SubscriptionSettings:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Update:
     """A node's new value (or why it has none) at data-layer time ``t_source`` (unix s)."""
 
@@ -160,7 +189,7 @@ class Update:
     value: float | Exception
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Keepalive:
     """The stream is alive; nothing changed up to ``t_source`` (unix s, if stated)."""
 
@@ -177,7 +206,7 @@ def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | Non
     if event.event not in ("update", "keepalive", "error"):
         return None
     try:
-        data = loads(event.data) if event.data.strip() else {}
+        data = loads(event.data) if event.data and not event.data.isspace() else {}
     except ValueError:
         raise InvalidEvent(f"{event.event} event with malformed JSON {event.data[:40]!r}") from None
     if not isinstance(data, dict):

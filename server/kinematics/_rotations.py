@@ -83,24 +83,32 @@ def _shepperd_map() -> tuple[Array, Array]:
 
 
 _SHEPPERD_LINEAR, _SHEPPERD_CONSTANT = _shepperd_map()
-_DIAGONAL_TERMS = (np.arange(4), np.array([3, 0, 1, 2]))
+_DIAGONAL_COLUMNS = np.array([3, 4, 9, 14])
+"""Where each candidate's leading term (4 q_k^2) sits among the 16 candidate numbers."""
+
+
+def _quat_rows(rot: Array) -> Array:
+    """Quaternions (n, 4) from rotation matrices flattened to rows (n, 9): Shepperd's method.
+
+    Of four candidate formulas, each row uses the one whose leading term is
+    largest, so no square root sees a small argument. The candidates are linear
+    in the matrix entries, hence one matrix product. This runs for every link of
+    every frame, mostly on a handful of matrices, so it is written for few
+    numpy calls rather than for clarity of the formula.
+    """
+    n = rot.shape[0]
+    cand = rot @ _SHEPPERD_LINEAR
+    cand += _SHEPPERD_CONSTANT
+    pick = cand[:, _DIAGONAL_COLUMNS].argmax(axis=1)
+    q: Array = cand.reshape(n, 4, 4)[np.arange(n), pick]
+    q *= (np.copysign(1.0, q[:, 3]) / np.sqrt(np.einsum("ij,ij->i", q, q)))[:, None]
+    return q
 
 
 def quat_xyzw_from_matrix(rot: Array) -> Array:
-    """Unit quaternions (x, y, z, w), w >= 0, from rotation matrices ``(..., 3, 3)``.
-
-    Shepperd's method: of four candidate formulas, each element uses the one
-    whose leading term is largest, so no square root sees a small argument. The
-    candidates are linear in the matrix entries, hence one matrix product:
-    this runs for every link of every frame.
-    """
+    """Unit quaternions (x, y, z, w), w >= 0, from rotation matrices ``(..., 3, 3)``."""
     m = np.asarray(rot, dtype=np.float64)
-    lead = m.shape[:-2]
-    cand = (m.reshape(-1, 9) @ _SHEPPERD_LINEAR + _SHEPPERD_CONSTANT).reshape(-1, 4, 4)
-    pick = np.argmax(cand[:, _DIAGONAL_TERMS[0], _DIAGONAL_TERMS[1]], axis=-1)
-    q: Array = cand[np.arange(cand.shape[0]), pick]
-    q *= np.copysign(1.0, q[:, 3:4]) / np.linalg.norm(q, axis=-1, keepdims=True)
-    return q.reshape(lead + (4,))
+    return _quat_rows(m.reshape(-1, 9)).reshape(m.shape[:-2] + (4,))
 
 
 def matrix_from_quat_xyzw(quat: Array) -> Array:
@@ -124,7 +132,11 @@ def matrix_from_quat_xyzw(quat: Array) -> Array:
 def pose7_from_matrix(pose: Array) -> Array:
     """Wire form [x, y, z, qx, qy, qz, qw] (m, unit quaternion) of 4x4 poses ``(..., 4, 4)``."""
     p = np.asarray(pose, dtype=np.float64)
-    return np.concatenate([p[..., :3, 3], quat_xyzw_from_matrix(p[..., :3, :3])], axis=-1)
+    flat = p.reshape(-1, 4, 4)
+    out = np.empty((flat.shape[0], 7))
+    out[:, :3] = flat[:, :3, 3]
+    out[:, 3:] = _quat_rows(flat[:, :3, :3].reshape(-1, 9))
+    return out.reshape(p.shape[:-2] + (7,))
 
 
 def matrix_from_pose7(pose7: Array) -> Array:

@@ -14,7 +14,10 @@ import { Socket } from './socket.js';
 import { Timeline } from './timeline.js';
 
 const PROTOCOL = 2; // server/protocol.py PROTOCOLS['linkview.2']
-const HUD_INTERVAL_MS = 100;
+// Every DOM readout (cards, plots, timeline, simulation) changes in one animation frame,
+// ten times a second; the frames between touch only the 3D view. Each DOM change is
+// painted and rasterised again, and without a GPU that raster competes with the 3D view.
+const READOUT_INTERVAL_MS = 100;
 const FRAME_ANYWAY_MS = 3000; // aim the camera even if a robot never gets a pose
 const LATENCY_SMOOTHING = 0.1; // weight of the newest sample in the latency average
 
@@ -44,6 +47,7 @@ class App {
 		this.sim = new SimPanel( root, this.stage );
 		this.clearance = new ClearanceWarning( root, this.stage, this.robots );
 		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), this.stage.settings.pixelRatio );
+		if ( this.stage.software ) this.quality.start( LEVELS.length - 1 );
 		this.panels = new Panels( root, ( left, right ) => {
 
 			this.stage.setInsets( left, right );
@@ -54,7 +58,7 @@ class App {
 		this.protocolError = null;
 		this.selected = null; // robot name shown in the plots and the simulation panel
 		this.trailSeconds = 5;
-		this._hudAt = - Infinity;
+		this._readoutAt = - Infinity;
 		this._dressed = false; // HUD and labels use the colours picked from the meshes
 		this._framed = false;
 		this._helloAt = null;
@@ -288,18 +292,19 @@ class App {
 			if ( this._framed ) view.updateAnchor();
 
 		}
-		if ( time - this._hudAt >= HUD_INTERVAL_MS ) {
+		if ( time - this._readoutAt >= READOUT_INTERVAL_MS ) {
 
-			this._hudAt = time;
+			this._readoutAt = time;
 			this._updateStates();
 			this.hud.update( views, this.clock, this.protocolError || this.robots.loadError );
 			this.mapping.update( views );
 			this.following.update( now );
 			this.sim.update();
 			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${LEVELS[ this.quality.level ].name}`;
+			this.timeline.refresh();
+			this.plots.redraw();
 
 		}
-		this.plots.tick( time );
 		this.stage.render();
 		this.labels.update( views, this.stage.camera );
 

@@ -4,7 +4,6 @@ import { displayScale, displayUnit } from './units.js';
 const WINDOW_S = 10;
 const CAPACITY = 600; // samples per robot: 10 s at up to 55 samples/s
 const MIN_SPACING_MS = 18; // faster sources are thinned: a 300 px plot shows no more
-const MAX_GAP_MS = 50; // at least 20 redraws a second
 const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
 const PLOT_HEIGHT = 66; // px of drawing area per joint (axes and padding come on top)
 const MIN_SPAN = 2; // a still joint gets +-1 deg (or mm) of range, not a flat line at a tick
@@ -43,6 +42,32 @@ class JointHistory {
 		const n = this.joints.length;
 		for ( let j = 0; j < n; j ++ ) this.values[ slot * n + j ] = j < values.length ? values[ j ] * this.scales[ j ] : NaN;
 		this.count ++;
+
+	}
+
+}
+
+// Chromium rasterises a 2D canvas on the GPU where it can. Without a GPU that is
+// SwiftShader in the GPU process, where seven charts redrawn 15 times a second cost
+// more than the 3D view itself (10 -> 20 frames/s with them stopped, Chromium's
+// default path, at the lowest quality level). `willReadFrequently` keeps a canvas on the CPU: drawn by Skia
+// here, handed over as a bitmap. uPlot asks for its context in its constructor,
+// so the option is slipped in around that call.
+function onCpuCanvas( make ) {
+
+	const getContext = HTMLCanvasElement.prototype.getContext;
+	HTMLCanvasElement.prototype.getContext = function ( kind, options ) {
+
+		return getContext.call( this, kind, kind === '2d' ? { ...options, willReadFrequently: true } : options );
+
+	};
+	try {
+
+		return make();
+
+	} finally {
+
+		HTMLCanvasElement.prototype.getContext = getContext;
 
 	}
 
@@ -153,15 +178,11 @@ function differentiate( xs, ys, vs ) {
 
 /**
  * One small uPlot chart per joint of the selected robot: the last 10 s, the
- * limits drawn, redrawn at least 20 times a second from the robot's
- * JointHistory. The charts' data arrays are allocated once and refilled in place.
+ * limits drawn, redrawn from the robot's JointHistory by the app's readout tick
+ * (in the animation loop, with the other readouts: a timer runs late on a page
+ * busy rendering). The charts' data arrays are allocated once and refilled in place.
  * Optionally each also shows the joint's velocity (dashed, its own axis on the
  * right), and one joint's chart can be enlarged to the panel's height.
- *
- * Redraws are driven by the animation loop, not a timer: a page busy rendering
- * runs timers late (15 a second where 25 were asked for), while the loop knows
- * when the next frame comes and redraws whenever waiting for it would leave a
- * gap over 50 ms.
  */
 class JointPlots {
 
@@ -179,9 +200,6 @@ class JointPlots {
 		this.history = null;
 		this.color = '#2f6fd6';
 		this._plots = []; // { plot, xs, ys, limits, range }
-		this._last = - Infinity; // when the charts were last redrawn (animation clock, ms)
-		this._frameMs = 16.7; // the animation loop's frame interval, smoothed
-		this._tickAt = null;
 		this.redraws = 0; // for tests: the plots are live
 		this.redrawMs = 0; // main-thread time of one redraw of every chart, smoothed
 
@@ -251,7 +269,7 @@ class JointPlots {
 
 			}
 			// Every plot has the same y-axis widths, so the time axes line up; the last shows them.
-			const plot = new uPlot( {
+			const plot = onCpuCanvas( () => new uPlot( {
 				width,
 				height,
 				legend: { show: false },
@@ -262,7 +280,7 @@ class JointPlots {
 				axes,
 				series,
 				plugins: [ limitsPlugin( limits, colors ) ],
-			}, vs ? [ xs, ys, vs ] : [ xs, ys ], row );
+			}, vs ? [ xs, ys, vs ] : [ xs, ys ], row ) );
 			plot.root.setAttribute( 'aria-label', `plot of ${joint.name} over the last ${WINDOW_S} s` );
 			this._plots.push( { plot, joint: j, xs, ys, vs, limits, range: null, vrange: null, height, outer: height, fitted: false } );
 
@@ -286,18 +304,7 @@ class JointPlots {
 
 	}
 
-	/** Call once per animation frame (`time`: the loop's clock, ms); redraws when due. */
-	tick( time ) {
-
-		if ( this._tickAt !== null ) this._frameMs += 0.1 * ( Math.min( time - this._tickAt, 200 ) - this._frameMs );
-		this._tickAt = time;
-		if ( time - this._last + this._frameMs <= MAX_GAP_MS ) return;
-		this._last = time;
-		this.redraw();
-
-	}
-
-	/** Refill every chart from the history and redraw (20 times a second while shown). */
+	/** Refill every chart from the history and redraw (the app's readout tick: 10 times a second). */
 	redraw() {
 
 		const history = this.history;

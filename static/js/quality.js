@@ -52,6 +52,16 @@ class Quality {
 
 	}
 
+	/**
+	 * Where 'auto' starts: software WebGL starts at the lowest level (and climbs
+	 * if it has headroom) rather than spending seconds at levels it cannot carry.
+	 */
+	start( level ) {
+
+		this._set( Math.max( 0, Math.min( level, LEVELS.length - 1 ) ), performance.now() );
+
+	}
+
 	/** 'auto', or pin a level index. */
 	setMode( mode ) {
 

@@ -29,6 +29,20 @@ const THEMES = {
 	dark: { grid: [ 0x5d6573, 0x3a414c ], shadow: 0x000000 },
 };
 
+// SwiftShader (Chromium without a usable GPU), llvmpipe (Mesa), Microsoft's WARP:
+// WebGL drawn by the CPU, where every pixel and draw call counts.
+const SOFTWARE_RENDERERS = /swiftshader|llvmpipe|softpipe|software|warp/i;
+
+/** Whether `renderer`'s WebGL is drawn by a software rasteriser (as far as the browser tells). */
+function drawnByCpu( renderer ) {
+
+	const gl = renderer.getContext();
+	const info = gl.getExtension( 'WEBGL_debug_renderer_info' );
+	const name = info ? gl.getParameter( info.UNMASKED_RENDERER_WEBGL ) : gl.getParameter( gl.RENDERER );
+	return SOFTWARE_RENDERERS.test( String( name ) );
+
+}
+
 /**
  * Renderer, orbit camera, lights, floor grid and shadows: everything in the view
  * that is not a robot. Robots are added under `world`. Quality settings
@@ -51,6 +65,7 @@ class Stage {
 
 		this.webgl = hasWebGL(); // without it, nothing is drawn and everything else still runs
 		this.renderer = this._makeRenderer();
+		this.software = this.webgl && drawnByCpu( this.renderer );
 		this._makeEnvironment();
 
 		this.controls = new OrbitControls( this.camera, container );

@@ -6,7 +6,6 @@ const BACK_S = 11; // fetched before the moment: trails and the 10 s joint plots
 const AHEAD_S = 20; // and after it, for playing on (poses cost the server ~4 ms per robot-second)
 const REFETCH_MARGIN_S = 5;
 const SUMMARY_EVERY_MS = 2000;
-const UI_EVERY_MS = 100;
 const POSE = 7;
 
 function clock( t ) {
@@ -50,7 +49,6 @@ class Timeline {
 		this._plotFilled = null;
 		this._generation = 0;
 		this._tickAt = null;
-		this._uiAt = - Infinity;
 		this._summaryAt = - Infinity;
 		this._build( root.getElementById( 'timeline' ) );
 		this._onKey = ( event ) => this._key( event );
@@ -246,12 +244,6 @@ class Timeline {
 
 		}
 		if ( this._plotHistory ) this._plotHistory.arrivalMs = performance.timeOrigin + performance.now();
-		if ( time - this._uiAt >= UI_EVERY_MS ) {
-
-			this._uiAt = time;
-			this._updateUi();
-
-		}
 
 	}
 
@@ -459,6 +451,13 @@ class Timeline {
 		this.playButton.disabled = this.mode === 'playing';
 		this.liveButton.disabled = this.mode === 'live';
 		for ( const b of this.speedButtons ) b.setAttribute( 'aria-pressed', String( Number( b.dataset.speed ) === this.speed ) );
+
+	}
+
+	/** The slider and the state line, from the app's readout tick (10 times a second). */
+	refresh() {
+
+		this._updateUi();
 
 	}
 

@@ -532,6 +532,41 @@ def test_quality_can_be_pinned_and_stays_legible(viewer: Watched) -> None:
         page.set_viewport_size({"width": 1280, "height": 800})
 
 
+def test_software_webgl_starts_at_the_lowest_level(browser: Browser, server_url: str) -> None:
+    """SwiftShader is a software rasteriser: 'auto' starts where it can keep up, not at 'full'."""
+    page = browser.new_page(viewport={"width": 800, "height": 600})
+    try:
+        open_page(page, f"{server_url}/", TIMEOUT_MS)  # auto
+        quality = page.evaluate("window.linkview.quality")
+        assert quality["mode"] == "auto"
+        assert quality["level"] == 5, quality
+        assert quality["settings"]["simpleMaterials"] and not quality["settings"]["shadows"]
+    finally:
+        page.close()
+
+
+def test_readouts_change_ten_times_a_second_not_every_frame(viewer: Watched) -> None:
+    """Plots and cards are redrawn on one readout tick (10/s), so most frames repaint no DOM."""
+    page = viewer.page
+    page.select_option("#selected-robot", "iiwa7")
+    page.wait_for_function("() => window.linkview.plots.robot === 'iiwa7'")
+    counted: dict[str, float] = page.evaluate(
+        """() => new Promise(done => {
+          const plots = window.linkview.plots.redraws; let frames = 0;
+          const start = performance.now();
+          function tick() {
+            frames++;
+            if (performance.now() - start < 2000) requestAnimationFrame(tick);
+            else done({ frames, redraws: window.linkview.plots.redraws - plots,
+                        seconds: (performance.now() - start) / 1000 });
+          }
+          requestAnimationFrame(tick);
+        })"""
+    )
+    per_s = counted["redraws"] / counted["seconds"]
+    assert 2 <= per_s <= 12, counted  # live, and at most the readout rate (however fast the frames)
+
+
 def test_narrow_screen_collapses_the_panels(viewer: Watched) -> None:
     page = viewer.page
     page.set_viewport_size({"width": 760, "height": 800})
