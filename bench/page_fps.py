@@ -105,8 +105,8 @@ STAGE_PAGE = """<!DOCTYPE html><html><head><meta charset="utf-8"><script type="i
 <body><main id="viewport"></main>
 <script type="module">
 import { Stage } from '/static/js/scene.js';
-const stage = new Stage(document.getElementById('viewport'));
-stage.setQuality({ shadows: false, antialias: false, pixelRatio: 1, environment: false });
+const stage = new Stage(document.getElementById('viewport'),
+  { shadows: false, antialias: false, pixelRatio: 1, environment: false, simpleMaterials: true });
 stage.setAnimationLoop(() => stage.render());
 window.ready = true;
 </script></body></html>"""

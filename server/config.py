@@ -51,6 +51,9 @@ class Settings(BaseSettings):
     keepalive_s: float = Field(1.0, gt=0.0, le=600.0)
     """Subscription keepalive interval; a stream silent 2.5 times as long is reopened."""
     request_timeout_s: float = Field(5.0, gt=0.0)
+    sample_cost_s: float = Field(0.0, ge=0.0, le=0.1)
+    """CPU seconds spent in vain on every sample: a test knob (environment only) that overloads
+    the process on purpose, whatever the machine (tests/e2e/test_overload.py). Leave it at 0."""
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
     mock_hold_s: float = Field(HOLD_S, ge=0.0, le=3600.0)

@@ -86,6 +86,9 @@ class SourceStatus(_Message):
     warning: str | None = None
     """A standing caveat that does not stop the stream, e.g. the device's clock is behind."""
     last_sample_age_s: float | None
+    overloaded: str | None = None
+    """While this process makes fewer frames than the source sends: "overloaded: N of M
+    samples processed, R frames/s per robot" (every robot moves, at that reduced rate)."""
 
 
 class Hello(_Message):

@@ -249,6 +249,7 @@ class Replica(Runtime):
             status = record["status"]
             health.url, health.mock = status["url"], status["mock"]
             health.warning = status["warning"]
+            health.overloaded = status.get("overloaded")  # the worker's count, not ours
             health.robots = {n: robot_health(r) for n, r in record["robots"].items()}
             self.holders[source] = record["worker"]
         except (orjson.JSONDecodeError, KeyError, TypeError) as exc:

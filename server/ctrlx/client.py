@@ -13,6 +13,7 @@ from typing import Any
 
 import aiohttp
 
+from ..lateness import PatientTimeout
 from .auth import API_PATHS, ApiPaths, ApiVersion, TokenManager
 from .bodies import NOT_JSON, Answer, decode, read_bounded
 from .connection import connection_error
@@ -96,7 +97,9 @@ class DataLayerClient:
         """Read ``ca_file`` before the next request (first, and after a failed connection)."""
         self._verified = False
         """True once the device passed verification: a later mismatch means it changed."""
-        self._timeout = aiohttp.ClientTimeout(total=timeout_s)
+        # aiohttp's own timers would count our event loop's lateness against the device:
+        # requests are bounded by PatientTimeout in _transport_errors instead.
+        self._timeout = aiohttp.ClientTimeout(total=None)
         self._session: aiohttp.ClientSession | None = None
         self.redact = Redactor(credentials.password)
         self.tokens = TokenManager(self._fetch_token)
@@ -243,10 +246,12 @@ class DataLayerClient:
 
     @contextlib.asynccontextmanager
     async def _transport_errors(self, method: str, path: str) -> AsyncIterator[None]:
-        """Turn timeouts and connection failures into DataLayerError naming the device."""
+        """Bound a request by ``timeout_s`` (of on-time loop) and turn timeouts and connection
+        failures into DataLayerError naming the device."""
         self._fresh_ca()
         try:
-            yield
+            async with PatientTimeout(self.timeout_s):
+                yield
             self._verified = True
         except TimeoutError:
             self._reread_ca = True
@@ -310,30 +315,29 @@ class DataLayerClient:
     async def _open_stream(
         self, path: str, params: dict[str, str] | None
     ) -> aiohttp.ClientResponse:
-        timeout = aiohttp.ClientTimeout(total=None, sock_connect=self.timeout_s, sock_read=None)
+        # No read timeout: the stream is watched by its reader (keepalive).
+        timeout = aiohttp.ClientTimeout(total=None, sock_read=None)
         token = await self.tokens.current()
         for attempt in (1, 2):
             self.traffic.requests += 1
             async with self._transport_errors("GET", path):
-                async with asyncio.timeout(self.timeout_s):
-                    resp = await self._http().get(
-                        self.base_url + path,
-                        params=params,
-                        headers={
-                            "Authorization": f"Bearer {token}",
-                            "Accept": "text/event-stream",
-                        },
-                        ssl=self._ssl,
-                        timeout=timeout,
-                        allow_redirects=False,
-                    )
+                resp = await self._http().get(
+                    self.base_url + path,
+                    params=params,
+                    headers={
+                        "Authorization": f"Bearer {token}",
+                        "Accept": "text/event-stream",
+                    },
+                    ssl=self._ssl,
+                    timeout=timeout,
+                    allow_redirects=False,
+                )
             if resp.status == 200 and resp.content_type == "text/event-stream":
                 self.tokens.accepted()
                 return resp
             try:
                 async with self._transport_errors("GET", path):
-                    async with asyncio.timeout(self.timeout_s):
-                        raw = await read_bounded(resp, f"GET {path}")
+                    raw = await read_bounded(resp, f"GET {path}")
             except DataLayerError:
                 raw = b""
             finally:

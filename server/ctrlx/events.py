@@ -5,13 +5,13 @@ from __future__ import annotations
 import asyncio
 import logging
 import secrets
-import time
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import unquote
 
 import aiohttp
 
+from ..lateness import lateness
 from .bodies import loads
 from .client import REFUSED, DataLayerClient
 from .connection import connection_error
@@ -255,7 +255,8 @@ class EventStream:
         self._client = client
         self._parser = SseParser()
         self.dead_after_s = dead_after_s
-        self._alive_at = time.monotonic()
+        self._alive = lateness().mark()
+        """When the last valid event came: silence is counted from here, on-time seconds only."""
         self._junk_bytes = 0
         self._junk: str | None = None
 
@@ -271,14 +272,16 @@ class EventStream:
             raise self._client.redact.error(exc) from None
 
     async def _next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
-        dead_at = self._alive_at + self.dead_after_s
+        # Silence counts only while our loop was on time: a busy process reads late,
+        # and that is no fault of the device (see server.lateness).
+        left = self.dead_after_s - self._alive.on_time_s()
         try:
-            async with asyncio.timeout(max(min(timeout_s, dead_at - time.monotonic()), 0.0)):
+            async with asyncio.timeout(max(min(timeout_s, left), 0.0)):
                 chunk = await self._response.content.readany()
         except TimeoutError:
-            if time.monotonic() >= dead_at:
+            if self._dead():
                 raise StreamEnded(self._why_dead()) from None
-            return None
+            return None  # the caller asks again (with what lateness left of the deadline)
         except aiohttp.ClientError as exc:
             reason = connection_error(self._client.base_url, exc)
             raise StreamEnded(f"event stream broke: {reason}") from None
@@ -298,10 +301,14 @@ class EventStream:
                     self._client.redact.error(item.value)
                 items.append(item)
         if items:
-            self._alive_at, self._junk_bytes, self._junk = time.monotonic(), 0, None
-        elif time.monotonic() >= dead_at:
+            self._alive, self._junk_bytes, self._junk = lateness().mark(), 0, None
+        elif self._dead():
             raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
         return items
+
+    def _dead(self) -> bool:
+        """True when no valid event came for ``dead_after_s`` of on-time loop."""
+        return self._alive.on_time_s() >= self.dead_after_s
 
     def _why_dead(self) -> str:
         if self._junk_bytes == 0:

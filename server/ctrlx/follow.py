@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import logging
 import math
 import random
@@ -30,6 +31,7 @@ from collections.abc import AsyncGenerator, AsyncIterator
 from dataclasses import dataclass
 from typing import Literal
 
+from ..lateness import Mark, lateness
 from ..text import plural
 from .client import DataLayerClient
 from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update
@@ -53,6 +55,9 @@ class Sample:
     t_source: float
     """Unix time (s) the data layer sampled the values."""
     values: dict[str, float | Exception]
+    received: int = 1
+    """The device's samples this one stands for: a reader that falls behind keeps the newest
+    values of several (latest wins) rather than queueing them."""
 
 
 REPROBE_S = 60.0
@@ -218,16 +223,17 @@ class _Interruptions:
         self._policy = policy
         self._worked = False
         self._attempt = 0
-        self._since: float | None = None
+        self._since: Mark | None = None
+        """When this streak of failures began (its length counts our on-time loop only)."""
 
     def succeeded(self) -> None:
         self._worked, self._attempt, self._since = True, 0, None
 
     async def failed(self, exc: DataLayerError) -> None:
         """Sleep before the next attempt, or raise ``exc`` if it is no passing interruption."""
-        now = time.monotonic()
-        self._since = now if self._since is None else self._since
-        if not (self._worked and _transient(exc)) or now - self._since > self._policy.give_up_s:
+        self._since = lateness().mark() if self._since is None else self._since
+        too_long = self._since.on_time_s() > self._policy.give_up_s
+        if not (self._worked and _transient(exc)) or too_long:
             raise exc
         delay = self._policy.delay(self._attempt)
         level = logging.INFO if self._attempt == 0 else logging.DEBUG  # news once per streak
@@ -255,6 +261,8 @@ class _Latest:
         self._opened = time.monotonic()
         self._t: float | None = None
         self._changed = False
+        self._cycles = 0
+        """Publish cycles (distinct timestamps) gathered since the last sample."""
 
     def add(self, item: Update | Keepalive) -> None:
         if isinstance(item, Update):
@@ -262,6 +270,8 @@ class _Latest:
                 return
             self._values[item.node] = item.value
         if item.t_source is not None:
+            # The events of one publish cycle share its timestamp: a new one is a new cycle.
+            self._cycles += item.t_source != self._t
             self._t = item.t_source if self._t is None else max(self._t, item.t_source)
         # A keepalive says "nothing changed until t": a fresh sample of the same values.
         self._changed = True
@@ -273,10 +283,11 @@ class _Latest:
         complete = len(self._values) == len(self._nodes)
         if not complete and time.monotonic() - self._opened < self._grace_s:
             return None  # the initial events of some nodes are still on their way
-        self._changed = False
+        self._changed, received, self._cycles = False, max(self._cycles, 1), 0
         missing = DataLayerError("the subscription sent no value for this node")
         values = {n: self._values.get(n, missing) for n in self._nodes}
-        return _checked(Sample(self._t if self._t is not None else time.time(), values))
+        t_source = self._t if self._t is not None else time.time()
+        return _checked(Sample(t_source, values, received))
 
 
 async def _subscribe(
@@ -371,7 +382,7 @@ async def _poll(
         period_s,
         how,
     )
-    pacer = Pacer(period_s)
+    pacer, skipped = Pacer(period_s), 0
     while events is None or not events.due():
         if bulk is not None and not use_bulk and bulk.due():
             bulk.retry()
@@ -390,7 +401,9 @@ async def _poll(
         if use_bulk and bulk is not None:
             bulk.worked()
         interruptions.succeeded()
-        yield sample
+        # A tick skipped because we were late is a sample the device had and we did not take.
+        yield dataclasses.replace(sample, received=1 + pacer.skipped - skipped)
+        skipped = pacer.skipped
         await pacer.wait()
 
 

@@ -16,11 +16,14 @@ class Pacer:
     def __init__(self, period_s: float) -> None:
         self.period_s = period_s
         self._next = time.monotonic()
+        self.skipped = 0
+        """Ticks skipped so far (the loop ran a whole period or more behind)."""
 
     async def wait(self) -> None:
         """Sleep until the next tick is due."""
         self._next += self.period_s
         delay = self._next - time.monotonic()
         if delay < -self.period_s:
+            self.skipped += int(-delay / self.period_s)
             self._next, delay = time.monotonic(), 0.0
         await asyncio.sleep(max(delay, 0.0))

@@ -1,18 +1,17 @@
 """How late this process's event loop runs: the first sign that it carries more than it can.
 
-A task asks to wake every ``PERIOD_S`` and measures how much later it woke.
-That lateness is ours, not a controller's: it is what every sample, frame
-and reply waited for a turn. /metrics exports the histogram and the newest value.
+The measure is ``server.lateness`` (one ticker per loop, waking every 0.1 s),
+which the data-source watchdogs also use to leave our lateness out of a
+device's time. This keeps its histogram and newest value for /metrics.
 """
 
 from __future__ import annotations
 
 import asyncio
-import time
 
+from ..lateness import lateness
 from ..stream.buckets import Buckets
 
-PERIOD_S = 0.1
 LAG_BUCKETS_S = (0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 5.0)
 
 
@@ -23,10 +22,15 @@ class LoopLag:
         self.buckets = Buckets(LAG_BUCKETS_S)
         self.newest = 0.0
 
+    def _observe(self, late_s: float) -> None:
+        self.newest = late_s
+        self.buckets.observe(late_s)
+
     async def run(self) -> None:
-        """Measure forever (cancel to stop)."""
-        while True:
-            start = time.perf_counter()
-            await asyncio.sleep(PERIOD_S)
-            self.newest = max(0.0, time.perf_counter() - start - PERIOD_S)
-            self.buckets.observe(self.newest)
+        """Record every tick of the running loop's measure until cancelled."""
+        clock = lateness()
+        clock.listen(self._observe)
+        try:
+            await asyncio.Event().wait()
+        finally:
+            clock.unlisten(self._observe)

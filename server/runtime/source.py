@@ -34,6 +34,8 @@ class SourceDefaults:
     """Seconds of samples every source keeps (see server.history)."""
     mock_hold_s: float = HOLD_S
     """How long an embedded mock holds a commanded pose before its demo cycle resumes."""
+    sample_cost_s: float = 0.0
+    """CPU seconds wasted per sample (a test knob, see Settings.sample_cost_s)."""
 
 
 @dataclass
@@ -119,7 +121,12 @@ async def start_source(
     client.warning = check_base_url(url)  # plain http to another machine: credentials in clear
     health = SourceHealth(name=config.name, url=url, mock=mock is not None)
     period = config.period_s or defaults.period_s
-    poll = PollSettings(period, config.mode or defaults.mode, keepalive_s=defaults.keepalive_s)
+    poll = PollSettings(
+        period,
+        config.mode or defaults.mode,
+        keepalive_s=defaults.keepalive_s,
+        sample_cost_s=defaults.sample_cost_s,
+    )
     tap = None if history is None else history.source(config.name, nodes_of(robots), period)
     acquisition = Acquisition(client, robots, hub, health, poll, tap=tap)
     return RunningSource(

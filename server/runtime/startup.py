@@ -64,4 +64,5 @@ def source_defaults(settings: Settings) -> SourceDefaults:
         allow_commands=settings.allow_commands,
         history_s=settings.history_s,
         mock_hold_s=settings.mock_hold_s,
+        sample_cost_s=settings.sample_cost_s,
     )

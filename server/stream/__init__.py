@@ -3,7 +3,7 @@
 from .acquisition import Acquisition, PollSettings
 from .hub import Hub, Message, Viewer
 from .messages import PROTOCOL_VERSIONS, cell_message, hello_message
-from .status import RobotHealth, SourceHealth
+from .status import RobotHealth, SourceHealth, load_summary
 
 __all__ = [
     "PROTOCOL_VERSIONS",
@@ -13,6 +13,7 @@ __all__ = [
     "PollSettings",
     "RobotHealth",
     "SourceHealth",
+    "load_summary",
     "Viewer",
     "cell_message",
     "hello_message",

@@ -44,6 +44,8 @@ class PollSettings:
     retry_min_s: float = 0.5
     retry_max_s: float = 1.5
     """Kept short: a device that behaves again must be streaming within 2 s."""
+    sample_cost_s: float = 0.0
+    """CPU seconds wasted per sample: a test knob that overloads the process on purpose."""
 
 
 class Acquisition:
@@ -126,8 +128,14 @@ class Acquisition:
         """Publish status when the derived state changes (e.g. stale) and once a second."""
         while True:
             await asyncio.sleep(STATE_CHECK_S)
+            load_changed = self.health.roll_window()
+            if load_changed:
+                news = self.health.overloaded or "all samples processed again"
+                level = logging.WARNING if self.health.overloaded else logging.INFO
+                log.log(level, "data source %s: %s", self.health.name, news)
             state = self.health.current_state()
-            if state != self._state_sent or time.monotonic() - self._status_sent >= STATUS_EVERY_S:
+            due = time.monotonic() - self._status_sent >= STATUS_EVERY_S
+            if load_changed or state != self._state_sent or due:
                 if state == "stale" and self._state_sent != "stale":
                     log.warning("data source %s: %s", self.health.name, self.health.status().error)
                 self.publish_status()
@@ -135,9 +143,11 @@ class Acquisition:
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
         self.tap.sample(self._seq, sample)
-        if self.health.mark_sample():
+        if self.health.mark_sample(sample.received):
             self.publish_status()
         start = time.perf_counter()
+        if self._settings.sample_cost_s:
+            _burn(self._settings.sample_cost_s)
         frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
         self.kinematics_time.observe(time.perf_counter() - start)
         t_sent = time.time()
@@ -201,3 +211,11 @@ class Acquisition:
         self.tap.state(self._state_sent, self.health.status().error)
         message = Message(self.health.status_message())
         self._hub.publish(f"status:{self.health.name}", message)
+
+
+def _burn(seconds: float) -> None:
+    """Keep the CPU busy for ``seconds`` of its time (the test knob ``sample_cost_s``)."""
+    # CPU time, not wall time: on a shared machine the knob costs the same work everywhere.
+    end = time.thread_time() + seconds
+    while time.thread_time() < end:
+        pass

@@ -9,11 +9,20 @@ import numpy as np
 import numpy.typing as npt
 import orjson
 
+from ..lateness import Mark, lateness
 from ..protocol import SourceStatus
+from ..text import plural
 
 STALE_PERIODS = 5
 STALE_MIN_S = 0.25
-"""A source whose last sample is older than 5 periods, and at least this, is ``stale``."""
+"""A source whose last sample is older than 5 periods, and at least this, is ``stale``.
+
+The age counts only the time our event loop was on time (server.lateness): a
+busy process that reads late makes its sources slower, not stale."""
+LOAD_WINDOW_S = 2.0
+"""Samples received and processed are compared over windows this long."""
+OVERLOADED_BELOW = 0.9
+"""Share of the device's samples made into frames under which the process is overloaded."""
 
 
 @dataclass
@@ -42,6 +51,19 @@ class SourceHealth:
     last_sample: float | None = None
     """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
+    received: int = 0
+    """Samples the device sent (a late reader merges several into the newest one)."""
+    processed: int = 0
+    """Samples made into frames."""
+    overloaded: str | None = None
+    """"overloaded: N of M samples processed ..." while the last window says so, else None."""
+    rate_hz: float | None = None
+    """Samples made into frames per second (per robot) in the last window."""
+    last_window: tuple[int, int] = (0, 0)
+    """Samples received and processed in the last window."""
+    _last_mark: Mark | None = None
+    _window: tuple[float, int, int] | None = None
+    """Start of the window: monotonic time, ``received`` and ``processed`` then."""
 
     @property
     def stale_after_s(self) -> float:
@@ -52,10 +74,16 @@ class SourceHealth:
         """Seconds since the last sample (our clock), None before the first."""
         return None if self.last_sample is None else time.monotonic() - self.last_sample
 
+    def _silent_s(self) -> float | None:
+        """Seconds since the last sample during which our event loop was on time."""
+        if self._last_mark is None:
+            return self.age()
+        return self._last_mark.on_time_s()
+
     def current_state(self) -> str:
         """The state as of now: ``connected`` turns ``stale`` when samples stop coming."""
-        age = self.age()
-        if self.state == "connected" and age is not None and age > self.stale_after_s:
+        silent = self._silent_s()
+        if self.state == "connected" and silent is not None and silent > self.stale_after_s:
             return "stale"
         return self.state
 
@@ -64,12 +92,38 @@ class SourceHealth:
         """True while fresh samples arrive."""
         return self.current_state() == "connected"
 
-    def mark_sample(self) -> bool:
-        """A sample arrived."""
+    def mark_sample(self, received: int = 1) -> bool:
+        """A sample arrived, standing for ``received`` of the device's (the newest of them)."""
         changed = self.current_state() != "connected"
-        self.last_sample = time.monotonic()
+        self._last_mark = lateness().mark()
+        self.last_sample = self._last_mark.at
         self.state, self.error = "connected", None
+        self.received += received
+        self.processed += 1
         return changed
+
+    def roll_window(self) -> bool:
+        """Close the load window once it is LOAD_WINDOW_S old; True when ``overloaded`` changed."""
+        now = time.monotonic()
+        if self._window is None:
+            self._window = (now, self.received, self.processed)
+            return False
+        start, received, processed = self._window
+        if now - start < LOAD_WINDOW_S:
+            return False
+        self._window = (now, self.received, self.processed)
+        received, processed = self.received - received, self.processed - processed
+        self.rate_hz = processed / (now - start)
+        self.last_window = (received, processed)
+        was = self.overloaded
+        if received and processed < OVERLOADED_BELOW * received:
+            self.overloaded = (
+                f"overloaded: {processed} of {plural(received, 'sample')} processed, "
+                f"{self.rate_hz:.0f} frames/s per robot"
+            )
+        else:
+            self.overloaded = None
+        return (was is None) != (self.overloaded is None)
 
     def mark_error(self, error: str) -> bool:
         """The source failed as a whole."""
@@ -108,8 +162,40 @@ class SourceHealth:
             error=error,
             warning=self.warning,
             last_sample_age_s=age,
+            overloaded=self.overloaded,
         )
 
     def status_message(self) -> str:
         """The ``status`` message for this source alone."""
         return orjson.dumps({"type": "status", "sources": [self.status().model_dump()]}).decode()
+
+
+def load_summary(sources: list[SourceHealth]) -> dict[str, object]:
+    """Samples received and processed by every source, and in the last windows, for health.
+
+    ``overloaded`` says "overloaded: N of M samples processed, R frames/s per robot (slowest
+    S)" while any source's last window fell short, else None.
+    """
+    received = sum(s.last_window[0] for s in sources)
+    processed = sum(s.last_window[1] for s in sources)
+    rates = [s.rate_hz for s in sources if s.rate_hz is not None]
+    text = None
+    overloaded = [s for s in sources if s.overloaded]
+    if overloaded and rates:
+        text = (
+            f"overloaded: {processed} of {plural(received, 'sample')} processed, "
+            f"{float(np.median(rates)):.0f} frames/s per robot (slowest {min(rates):.0f})"
+        )
+    elif overloaded:  # a replica: the workers count, and say so per source
+        text = f"{overloaded[0].name}: {overloaded[0].overloaded}"
+        text += f" (and {plural(len(overloaded) - 1, 'other source')})" * (len(overloaded) > 1)
+    return {
+        "overloaded": text,
+        "received": sum(s.received for s in sources),
+        "processed": sum(s.processed for s in sources),
+        "window": {"received": received, "processed": processed},
+        "rate_hz": {
+            "min": min(rates, default=None),
+            "median": float(np.median(rates)) if rates else None,
+        },
+    }

@@ -61,8 +61,18 @@ class RuntimeCollector(Collector):
         kinematics = _histogram(
             "linkview_kinematics_seconds", "Pose computation per sample", ["source"]
         )
+        received = CounterMetricFamily(
+            "linkview_samples_received", "Samples the data source sent", labels=["source"]
+        )
+        processed = CounterMetricFamily(
+            "linkview_samples_processed",
+            "Samples made into frames (fewer than received: the process cannot keep up)",
+            labels=["source"],
+        )
         for source_health in runtime.healths():  # a cluster replica's too: from its broker
             name = source_health.name
+            received.add_metric([name], source_health.received)
+            processed.add_metric([name], source_health.processed)
             for robot, health in source_health.robots.items():
                 published.add_metric([robot], health.frames)
             sample_age = source_health.age()
@@ -75,7 +85,7 @@ class RuntimeCollector(Collector):
             errors.add_metric([name], acquisition.failures)
             logins.add_metric([name], source.client.tokens.logins)
             _add(kinematics, [name], acquisition.kinematics_time)
-        yield from (published, requests, errors, logins, age, live, kinematics)
+        yield from (published, requests, errors, logins, age, live, kinematics, received, processed)
         held = GaugeMetricFamily(
             "linkview_history_samples", "Samples the timeline holds", labels=["source"]
         )

@@ -11,6 +11,7 @@ from fastapi.responses import FileResponse, JSONResponse
 from ..cell.mesh_files import glb_problem
 from ..paths import STATIC_DIR
 from ..runtime import Runtime
+from ..stream import load_summary
 
 router = APIRouter()
 
@@ -92,9 +93,12 @@ async def health(request: Request) -> JSONResponse:
         )
     live = [s["state"] == "connected" for s in sources]
     healthy = all(live) and all(r["ok"] for r in robots) and runtime.cell_error is None
-    status = "ok" if healthy else "degraded"
+    samples = load_summary(list(by_name.values()))
+    # Overloaded is not degraded: every robot still moves, at a reduced rate.
+    status = ("overloaded" if samples["overloaded"] else "ok") if healthy else "degraded"
     body = {
         "status": status,
+        "samples": samples,
         "time": time.time(),
         "cell": {
             "path": runtime.cell_name,

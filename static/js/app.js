@@ -4,6 +4,7 @@ import { Following } from './following.js';
 import { Hud } from './hud.js';
 import { Labels } from './labels.js';
 import { MappingTables } from './mapping.js';
+import { probeWebGL } from './no_webgl.js';
 import { Panels } from './panels.js';
 import { JointPlots } from './plots.js';
 import { LEVELS, Quality } from './quality.js';
@@ -31,7 +32,11 @@ class App {
 	constructor( root = document ) {
 
 		this.root = root;
-		this.stage = new Stage( root.getElementById( 'viewport' ) );
+		// Software WebGL starts 'auto' at the lowest level rather than spending seconds at
+		// levels it cannot carry (and climbs if it has headroom); the stage is built at it.
+		const webgl = probeWebGL();
+		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), Math.min( window.devicePixelRatio, 2 ), webgl?.software ? LEVELS.length - 1 : 0 );
+		this.stage = new Stage( root.getElementById( 'viewport' ), this.quality.settings(), webgl !== null );
 		root.getElementById( 'no-webgl' ).hidden = this.stage.webgl;
 		this.robots = new Robots( this.stage.world );
 		this.hud = new Hud( root, {
@@ -46,8 +51,6 @@ class App {
 		this.plots = new JointPlots( root.getElementById( 'plots' ), root.getElementById( 'plot-velocity' ) );
 		this.sim = new SimPanel( root, this.stage );
 		this.clearance = new ClearanceWarning( root, this.stage, this.robots );
-		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), this.stage.settings.pixelRatio );
-		if ( this.stage.software ) this.quality.start( LEVELS.length - 1 );
 		this.panels = new Panels( root, ( left, right ) => {
 
 			this.stage.setInsets( left, right );

@@ -195,6 +195,8 @@ class Hud {
 			item.append( element( 'span', 'address', source.url ) );
 			if ( source.error ) item.append( element( 'span', 'error', source.error ) );
 			if ( source.warning ) item.append( element( 'span', 'warning', source.warning ) );
+			// "overloaded: N of M samples processed, R frames/s per robot": why robots move slower.
+			if ( source.overloaded ) item.append( element( 'span', 'warning', source.overloaded ) );
 			this.sourcesEl.append( item );
 
 		}
@@ -334,6 +336,12 @@ class Hud {
 
 		}
 		if ( robotProblem ) return { text: `${robotProblem} cannot be posed: see the error beside it`, warn: true };
+		// No figures here: the banner's text must not change while the overload lasts.
+		for ( const source of this.sources.values() ) {
+
+			if ( source.overloaded ) return { text: 'The server cannot keep up: robots move at a reduced rate (see the data sources)', warn: true };
+
+		}
 		return null;
 
 	}

@@ -3,17 +3,30 @@
 // simulation, live. The scene is still built, so every module works as usual; it is
 // just never drawn.
 
-/** Whether this browser can make a WebGL context at all (asked once, on a scratch canvas). */
-function hasWebGL() {
+// SwiftShader (Chromium without a usable GPU), llvmpipe (Mesa), Microsoft's WARP:
+// WebGL drawn by the CPU, where every pixel and draw call counts.
+const SOFTWARE_RENDERERS = /swiftshader|llvmpipe|softpipe|software|warp/i;
+
+/**
+ * What draws this browser's WebGL, asked once on a scratch canvas: `null` when it
+ * has none, else `{ name, software }` (`software`: a CPU rasteriser, as far as
+ * the browser tells its name).
+ */
+function probeWebGL() {
 
 	try {
 
 		const probe = document.createElement( 'canvas' );
-		return Boolean( probe.getContext( 'webgl2' ) || probe.getContext( 'webgl' ) );
+		const gl = probe.getContext( 'webgl2' ) || probe.getContext( 'webgl' );
+		if ( ! gl ) return null;
+		const info = gl.getExtension( 'WEBGL_debug_renderer_info' );
+		const name = String( gl.getParameter( info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER ) );
+		gl.getExtension( 'WEBGL_lose_context' )?.loseContext(); // one context less to keep
+		return { name, software: SOFTWARE_RENDERERS.test( name ) };
 
 	} catch {
 
-		return false;
+		return null;
 
 	}
 
@@ -63,4 +76,4 @@ class NoRenderer {
 
 }
 
-export { NoRenderer, hasWebGL };
+export { NoRenderer, probeWebGL };

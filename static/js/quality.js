@@ -29,12 +29,13 @@ const RETRY_MS = 30000; // a level that proved too slow is not retried before th
  */
 class Quality {
 
-	constructor( apply, maxPixelRatio ) {
+	/** `level`: where 'auto' starts (the caller builds the scene with its `settings()`). */
+	constructor( apply, maxPixelRatio, level = 0 ) {
 
 		this.apply = apply; // (settings) => void
 		this.maxPixelRatio = maxPixelRatio;
 		this.mode = 'auto'; // or a level index, pinned
-		this.level = 0;
+		this.level = Math.max( 0, Math.min( level, LEVELS.length - 1 ) );
 		this.fps = 0; // frames/s over the last window
 		this._windowStart = null;
 		this._frames = 0;
@@ -49,16 +50,6 @@ class Quality {
 
 		const { shadows, antialias, pixelRatio, environment, simpleMaterials } = LEVELS[ level ];
 		return { shadows, antialias, environment, simpleMaterials, pixelRatio: pixelRatio ?? this.maxPixelRatio };
-
-	}
-
-	/**
-	 * Where 'auto' starts: software WebGL starts at the lowest level (and climbs
-	 * if it has headroom) rather than spending seconds at levels it cannot carry.
-	 */
-	start( level ) {
-
-		this._set( Math.max( 0, Math.min( level, LEVELS.length - 1 ) ), performance.now() );
 
 	}
 

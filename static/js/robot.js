@@ -1,5 +1,6 @@
 import * as THREE from 'three';
 import { SimplifyModifier } from 'three/addons/modifiers/SimplifyModifier.js';
+import { mergedLinkGeometry } from './merged_links.js';
 import { Trail } from './trail.js';
 
 const PALETTE = [ 0x2f6fd6, 0xf07a1a, 0x17a08f, 0x9b4dca, 0xd6405a, 0x6b8e23 ];
@@ -120,6 +121,10 @@ class RobotView {
 		this._sticks = []; // [cylinder, from node, to object] of stand-ins
 		this._materials = new Map(); // link mesh -> its own material
 		this._geometries = new Map(); // link mesh (from a mesh file) -> its own geometry
+		this._linkOf = new Map(); // link mesh (from a mesh file) -> its link's index
+		this._merged = null; // lowest level: one mesh per link, [Mesh | null] by link
+		this._merging = null; // while the simplified parts are being made
+		this._vertexColored = null; // their material (in colour)
 		this.greyed = false;
 		this.simple = false;
 
@@ -175,6 +180,7 @@ class RobotView {
 					child.receiveShadow = true;
 					this._materials.set( child, child.material );
 					this._geometries.set( child, child.geometry );
+					this._linkOf.set( child, i );
 
 				}
 
@@ -282,28 +288,66 @@ class RobotView {
 			mesh.material = this.simple ? simpleMaterial( base ) : base;
 
 		}
+		for ( const merged of this._merged ?? [] ) if ( merged ) merged.material = this._mergedMaterial();
 		this._applyGeometries();
+
+	}
+
+	_mergedMaterial() {
+
+		if ( this.greyed ) return simpleMaterial( GREY );
+		this._vertexColored ??= new THREE.MeshLambertMaterial( { vertexColors: true } );
+		return this._vertexColored;
 
 	}
 
 	// The simplified geometry arrives asynchronously; whichever mode holds when it does wins.
 	_applyGeometries() {
 
-		for ( const [ mesh, own ] of this._geometries ) {
+		if ( ! this.simple ) {
 
-			if ( ! this.simple ) {
-
-				mesh.geometry = own;
-				continue;
-
-			}
-			coarseGeometry( own ).then( ( coarse ) => {
-
-				if ( this.simple ) mesh.geometry = coarse;
-
-			} );
+			this._unmerge();
+			for ( const [ mesh, own ] of this._geometries ) mesh.geometry = own;
+			return;
 
 		}
+		const meshes = [ ...this._geometries.keys() ];
+		if ( this._merged || this._merging || meshes.length === 0 ) return; // meshes still loading: load() calls again
+		this._merging = Promise.all( meshes.map( ( mesh ) => coarseGeometry( this._geometries.get( mesh ) ) ) ).then( ( coarse ) => {
+
+			this._merging = null;
+			if ( ! this.simple || this._merged || this._geometries.size !== meshes.length ) return;
+			const parts = this.nodes.map( () => [] );
+			meshes.forEach( ( mesh, k ) => parts[ this._linkOf.get( mesh ) ].push( [ mesh, coarse[ k ], this._materials.get( mesh ).color ] ) );
+			this._merged = this.nodes.map( ( node, i ) => {
+
+				const geometry = mergedLinkGeometry( node, parts[ i ] );
+				if ( geometry === null ) return null;
+				const merged = new THREE.Mesh( geometry, this._mergedMaterial() );
+				merged.name = 'merged link';
+				merged.castShadow = true;
+				node.add( merged );
+				return merged;
+
+			} );
+			for ( const mesh of meshes ) mesh.visible = false;
+
+		} );
+
+	}
+
+	_unmerge() {
+
+		if ( ! this._merged ) return;
+		for ( const merged of this._merged ) {
+
+			if ( ! merged ) continue;
+			merged.removeFromParent();
+			merged.geometry.dispose();
+
+		}
+		this._merged = null;
+		for ( const mesh of this._geometries.keys() ) mesh.visible = true;
 
 	}
 
@@ -504,6 +548,8 @@ class RobotView {
 	dispose() {
 
 		this.group.removeFromParent();
+		this._unmerge();
+		this._vertexColored?.dispose();
 		this.trail.dispose();
 		this.tcp.traverse( ( child ) => {
 

@@ -1,7 +1,7 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
-import { NoRenderer, hasWebGL } from './no_webgl.js';
+import { NoRenderer } from './no_webgl.js';
 import { OrientationAids } from './orientation.js';
 
 // The robot data is Z up (metres); make every camera and light agree.
@@ -29,20 +29,6 @@ const THEMES = {
 	dark: { grid: [ 0x5d6573, 0x3a414c ], shadow: 0x000000 },
 };
 
-// SwiftShader (Chromium without a usable GPU), llvmpipe (Mesa), Microsoft's WARP:
-// WebGL drawn by the CPU, where every pixel and draw call counts.
-const SOFTWARE_RENDERERS = /swiftshader|llvmpipe|softpipe|software|warp/i;
-
-/** Whether `renderer`'s WebGL is drawn by a software rasteriser (as far as the browser tells). */
-function drawnByCpu( renderer ) {
-
-	const gl = renderer.getContext();
-	const info = gl.getExtension( 'WEBGL_debug_renderer_info' );
-	const name = info ? gl.getParameter( info.UNMASKED_RENDERER_WEBGL ) : gl.getParameter( gl.RENDERER );
-	return SOFTWARE_RENDERERS.test( String( name ) );
-
-}
-
 /**
  * Renderer, orbit camera, lights, floor grid and shadows: everything in the view
  * that is not a robot. Robots are added under `world`. Quality settings
@@ -52,10 +38,14 @@ function drawnByCpu( renderer ) {
  */
 class Stage {
 
-	constructor( container ) {
+	/**
+	 * `settings`: the quality to start with (quality.js `settings()`); `webgl`: false
+	 * where the browser has none (nothing is drawn, everything else still runs).
+	 */
+	constructor( container, settings, webgl = true ) {
 
 		this.container = container;
-		this.settings = { shadows: true, antialias: true, pixelRatio: Math.min( window.devicePixelRatio, 2 ), environment: true, simpleMaterials: false };
+		this.settings = { ...settings };
 		this._loop = null;
 		this.insets = { left: 0, right: 0 }; // px of the view covered by panels
 
@@ -63,10 +53,9 @@ class Stage {
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
 		this.camera.position.set( 1.6, - 2.2, 1.4 );
 
-		this.webgl = hasWebGL(); // without it, nothing is drawn and everything else still runs
+		this.webgl = webgl;
 		this.renderer = this._makeRenderer();
-		this.software = this.webgl && drawnByCpu( this.renderer );
-		this._makeEnvironment();
+		this.environment = null; // made when first wanted: seconds of work on software WebGL
 
 		this.controls = new OrbitControls( this.camera, container );
 		this.controls.target.set( 0, 0, 0.3 );
@@ -90,6 +79,7 @@ class Stage {
 		this._onResize = () => this.resize();
 		window.addEventListener( 'resize', this._onResize );
 		this.resize();
+		this._applySettings();
 
 	}
 
@@ -111,7 +101,6 @@ class Stage {
 	// Soft image-based light from a neutral room; the room is Y up, so turn it to Z up.
 	_makeEnvironment() {
 
-		this.environment = null;
 		if ( ! this.webgl ) return; // the room's light is baked by the GPU
 		this.pmrem = new THREE.PMREMGenerator( this.renderer );
 		const room = new RoomEnvironment();
@@ -119,7 +108,6 @@ class Stage {
 		room.dispose();
 		this.scene.environmentIntensity = 0.4;
 		this.scene.environmentRotation.set( Math.PI / 2, 0, 0 );
-		this.scene.environment = this.settings.environment ? this.environment : null;
 
 	}
 
@@ -129,6 +117,7 @@ class Stage {
 		if ( ! this.environment ) return;
 		this.environment.dispose();
 		this.pmrem.dispose();
+		this.environment = null;
 
 	}
 
@@ -223,32 +212,40 @@ class Stage {
 
 			const old = this.renderer;
 			old.setAnimationLoop( null );
-			this._disposeEnvironment();
+			this._disposeEnvironment(); // made by the old renderer
 			this.renderer = this._makeRenderer();
 			old.domElement.remove();
 			old.dispose();
-			this._makeEnvironment();
 			this.renderer.setAnimationLoop( this._loop );
 			this.resize();
 
 		}
-		this.renderer.shadowMap.enabled = next.shadows;
-		this.sun.castShadow = next.shadows;
-		this.floor.visible = next.shadows;
-		this.scene.environment = next.environment ? this.environment : null; // null without WebGL
-		// Without the room's light the scene would be dark: the sky light makes up for it.
-		this.hemi.intensity = next.environment ? 0.6 : 1.5;
 		if ( resize ) {
 
 			this.renderer.setPixelRatio( next.pixelRatio );
 			this.resize();
 
 		}
+		this._applySettings();
 		if ( recompile ) this.scene.traverse( ( object ) => {
 
 			if ( object.material ) for ( const m of [].concat( object.material ) ) m.needsUpdate = true;
 
 		} );
+
+	}
+
+	// What the settings say beyond the renderer itself: shadows, floor, environment light.
+	_applySettings() {
+
+		const { shadows, environment } = this.settings;
+		this.renderer.shadowMap.enabled = shadows;
+		this.sun.castShadow = shadows;
+		this.floor.visible = shadows;
+		if ( environment && this.environment === null ) this._makeEnvironment();
+		this.scene.environment = environment ? this.environment : null; // null without WebGL
+		// Without the room's light the scene would be dark: the sky light makes up for it.
+		this.hemi.intensity = environment ? 0.6 : 1.5;
 
 	}
 

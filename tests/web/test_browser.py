@@ -489,8 +489,14 @@ def _painted(rgb: np.ndarray, hue_deg: float) -> np.ndarray:
 
 def test_quality_can_be_pinned_and_stays_legible(viewer: Watched) -> None:
     page = viewer.page
+    page.select_option("#quality", "4")
+    page.wait_for_function("() => window.linkview.quality.level === 4")
+    page.wait_for_timeout(300)
+    parts_drawn = page.evaluate("window.linkview.renderInfo.calls")
     page.select_option("#quality", "5")
     page.wait_for_function("() => window.linkview.quality.level === 5")
+    # The lowest level draws each link as one mesh: the demo cell's 45 parts are 15 links.
+    page.wait_for_function(f"() => window.linkview.renderInfo.calls <= {parts_drawn} - 25")
     settings = page.evaluate("window.linkview.quality.settings")
     assert settings == {
         "shadows": False,

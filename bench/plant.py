@@ -1,0 +1,245 @@
+"""Robots per core: K arms, each on its own mock controller, one linkview process on one core.
+
+For each K: K mock controllers (the real mock, bench/_mock_farm.py, 25 per
+process), a cell with one source per controller (subscriptions at 50 Hz, as
+bench/cluster.py makes it), ``python -m server`` pinned to CPU 0 and the
+mocks pinned to CPU 1 (the light viewer is not pinned). After a
+warm-up, one protocol-2 viewer (bench/_viewer_client.py) counts every robot's
+frames over the window. Reported: the server's CPU, frames/s per robot as the
+viewer received them (min, median) and as the server made them (/api/health),
+the delay from the controller's sample time to the viewer's receipt (p50,
+p99), the sources' states at the end (connected, stale, error), the samples
+the server made into frames against those the controllers sent (its own
+count, where it has one) and the event loop's lateness.
+
+The issue's sizes (K = 10 ... 400 on a 16-core machine) are for a machine
+with cores to spare for the mocks; on a 2-core machine the mocks share one
+core, so the default list is scaled down.
+
+Usage: ``python bench/plant.py [--robots 10,25,50,100,150] [--seconds 5]
+[--warmup 4] [--quick]``; writes docs/benchmarks.md except in quick runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+from _report import markdown_table, publish  # noqa: E402
+from cluster import PASSWORD_ENV, cell_text, health, start_farms  # noqa: E402
+from viewers import cpu_seconds, free_port, stop  # noqa: E402
+
+CLIENT = ROOT / "bench" / "_viewer_client.py"
+SERVER_CPU, OTHER_CPU = 0, 1
+Case = dict[str, Any]
+COLUMNS = {
+    "robots": "{robots}",
+    "server CPU": "{server_cpu:.0%}",
+    "server CPU ms per robot-sample": "{cpu_per_sample_ms:.3f}",
+    "delivered frames/s per robot (min)": "{fps_min:.1f}",
+    "(median)": "{fps_median:.1f}",
+    "made frames/s per robot (median)": "{made_median:.1f}",
+    "sent/s per robot": "{sent_hz}",
+    "samples made into frames": "{processed}",
+    "sample→receipt p50 ms": "{p50_ms:.0f}",
+    "p99 ms": "{p99_ms:.0f}",
+    "loop lag (newest) ms": "{lag_ms:.0f}",
+    "sources connected / stale / error": "{connected} / {stale} / {error}",
+    "mocks CPU": "{mocks_cpu:.0%}",
+}
+
+
+def pin(pid: int, cpu: int) -> None:
+    """Keep a process (every thread it has now) on one CPU, where the machine has it."""
+    if cpu < (os.cpu_count() or 1):
+        for task in os.listdir(f"/proc/{pid}/task"):
+            os.sched_setaffinity(int(task), {cpu})
+
+
+def loop_lag_ms(port: int) -> float:
+    """The event loop's newest lateness from /metrics (ms); NaN where it is not exported."""
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=10) as resp:
+        text = resp.read().decode()
+    found = re.search(r"^linkview_event_loop_lag_newest_seconds (\S+)$", text, re.M)
+    return float(found.group(1)) * 1e3 if found else float("nan")
+
+
+def start_server(stack: ExitStack, cell: Path, port: int, log: Path) -> subprocess.Popen[bytes]:
+    """``python -m server`` for the cell, on CPU 0 from its first instruction."""
+    cpus = "" if (os.cpu_count() or 1) <= SERVER_CPU else str(SERVER_CPU)
+    prefix = ["taskset", "-c", cpus] if cpus else []
+    with open(log, "ab") as out:
+        server = subprocess.Popen(
+            [*prefix, sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
+            cwd=ROOT,
+            env={**os.environ, "PYTHONPATH": str(ROOT), PASSWORD_ENV: "boschrexroth"},
+            stdout=out,
+            stderr=out,
+        )
+    stack.callback(stop, server)
+    return server
+
+
+def wait_connected(port: int, server: subprocess.Popen[bytes], timeout_s: float) -> float:
+    """Seconds until every source is connected (or the timeout, past which it goes on)."""
+    begin = time.monotonic()
+    while time.monotonic() - begin < timeout_s and server.poll() is None:
+        try:
+            if all(s["state"] == "connected" for s in health(port)["sources"]):
+                break
+        except OSError:
+            pass
+        time.sleep(0.3)
+    if server.poll() is not None:
+        raise RuntimeError(f"the server ended ({server.returncode}) before its sources connected")
+    return time.monotonic() - begin
+
+
+def made(port: int) -> tuple[float, dict[str, int]]:
+    """(monotonic now, frames the server made so far, by robot)."""
+    return time.monotonic(), {r["name"]: r["frames"] for r in health(port)["robots"]}
+
+
+def run_case(robots: int, warmup: float, seconds: float) -> Case:
+    """Mocks, a server on one core and one viewer; one window measured."""
+    with ExitStack() as stack, tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        farms, urls = start_farms(stack, robots, folder)
+        for pid in farms:
+            pin(pid, OTHER_CPU)
+        cell = folder / "cell" / "cell.toml"  # a folder of its own: the server watches it
+        cell.parent.mkdir()
+        cell.write_text(cell_text(urls))
+        port = free_port()
+        server = start_server(stack, cell, port, folder / "server.log")
+        connect_s = wait_connected(port, server, 60 + robots * 0.5)
+        out = folder / "delays"
+        viewer = subprocess.Popen(
+            [sys.executable, str(CLIENT), "--port", str(port), "--viewers", "1"]
+            + ["--protocol", "2", "--out", str(out)],
+            cwd=ROOT,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        stack.callback(stop, viewer)  # not pinned: beside the mocks it starved at K = 100
+        assert viewer.stdin is not None and viewer.stdout is not None
+        if viewer.stdout.readline() != "ready\n":
+            raise RuntimeError("the viewer could not connect")
+        begin = time.time() + warmup
+        viewer.stdin.write(f"{begin!r} {begin + seconds!r}\n")
+        viewer.stdin.flush()
+        time.sleep(max(0.0, begin - time.time()))
+        pids = [server.pid, *farms]
+        cpu0, made0, body0 = [cpu_seconds(p) for p in pids], made(port), health(port)
+        time.sleep(max(0.0, begin + seconds - time.time()))
+        cpu = [cpu_seconds(p) - c for p, c in zip(pids, cpu0, strict=True)]
+        made1, body1, lag = made(port), health(port), loop_lag_ms(port)
+        summary = json.loads(viewer.communicate(timeout=60)[0].splitlines()[-1])
+        delays = np.fromfile(out) if out.exists() else np.zeros(0)
+    fps = [n / seconds for n in summary["viewers"][0]["frames"].values()]
+    elapsed = made1[0] - made0[0]
+    made_fps = [(made1[1][r] - made0[1][r]) / elapsed for r in made1[1]]
+    states = [s["state"] for s in body1["sources"]]
+    p50, p99 = np.percentile(delays, [50, 99]) * 1e3 if len(delays) else (np.nan, np.nan)
+    return {
+        "robots": robots,
+        "connect_s": connect_s,
+        "server_cpu": cpu[0] / elapsed,
+        # The issue's yardstick (<= 0.1 ms): SSE bytes to socket write, all of it.
+        "cpu_per_sample_ms": 1e3 * cpu[0] / max(sum(made_fps) * elapsed, 1),
+        "mocks_cpu": sum(cpu[1:]) / elapsed,
+        "fps_min": min(fps),
+        "fps_median": float(np.median(fps)),
+        "made_median": float(np.median(made_fps)),
+        "made_min": min(made_fps),
+        "processed": processed(body0, body1),
+        "sent_hz": sent_hz(body0, body1, elapsed, robots),
+        "p50_ms": p50,
+        "p99_ms": p99,
+        "lag_ms": lag,
+        "connected": states.count("connected"),
+        "stale": states.count("stale"),
+        "error": states.count("error"),
+        "errors": sorted({s["error"] for s in body1["sources"] if s["state"] == "error"}),
+    }
+
+
+def sent_hz(before: dict[str, Any], after: dict[str, Any], seconds: float, robots: int) -> str:
+    """Samples per second each controller sent, as the server counted them (if it does)."""
+    if "samples" not in after:
+        return "not counted"
+    sent = after["samples"]["received"] - before["samples"]["received"]
+    return f"{sent / seconds / robots:.1f}"
+
+
+def processed(before: dict[str, Any], after: dict[str, Any]) -> str:
+    """Samples made into frames of those the controllers sent, over the window (if counted)."""
+    if "samples" not in after:
+        return "not counted"
+    done = after["samples"]["processed"] - before["samples"]["processed"]
+    sent = after["samples"]["received"] - before["samples"]["received"]
+    return f"{done} of {sent} ({done / max(sent, 1):.0%})"
+
+
+def main() -> None:
+    """Run every K, print the table and (unless quick) write it to docs/benchmarks.md."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--robots", help="robot counts (comma list; default 10,25,50,100,150)")
+    parser.add_argument("--seconds", type=float, default=5.0, help="measuring window per K")
+    parser.add_argument("--warmup", type=float, default=4.0, help="after every source is live")
+    parser.add_argument("--quick", action="store_true", help="no docs; default K = 5, 2 s")
+    parser.add_argument("--title", default="Robots per core", help="section title")
+    args = parser.parse_args()
+    if args.quick and args.robots is None:
+        args.robots, args.seconds, args.warmup = "5", 2.0, 1.0
+    args.robots = args.robots or "10,25,50,100,150"
+    load0, cases = os.getloadavg(), []
+    for k in map(int, args.robots.split(",")):
+        cases.append(run_case(k, args.warmup, args.seconds))
+        print("| " + " | ".join(f.format(**cases[-1]) for f in COLUMNS.values()) + " |")
+    load1 = os.getloadavg()
+    rows = [[f.format(**c) for f in COLUMNS.values()] for c in cases]
+    errors = [f"K = {c['robots']}: {'; '.join(c['errors'])}" for c in cases if c["errors"]]
+    notes = (
+        f"Scaled down for this {os.cpu_count()}-core machine (the issue's K = 10 ... 400 needs "
+        "cores to spare for the mocks): K KUKA LBR iiwa 7 R800 arms, each on its own mock "
+        "controller (bench/_mock_farm.py, 25 per process), one subscription per controller at "
+        f"50 Hz. The server runs pinned to CPU {SERVER_CPU} (`taskset`), the mocks on CPU "
+        f"{OTHER_CPU}, the one protocol-2 viewer on either; the machine is shared with other "
+        "jobs. "
+        f"{args.warmup:g} s of warm-up after every source is connected, {args.seconds:g} s "
+        "measured. Delivered: frames per robot the viewer received; made: samples per robot "
+        "the server made into frames (/api/health); sent: samples per robot the controllers "
+        "sent, as the server counted them (below 50: the mocks, one core for all, fall "
+        "behind); samples made into frames: the server's count of samples processed against "
+        "those the controllers sent (a source that falls behind keeps the newest); states from "
+        "/api/health at the end of the window. CPU: utime + stime over the window, 100 % = one "
+        f"core. Load average (1, 5 min) {load0[0]:.2f}, {load0[1]:.2f} before, "
+        f"{load1[0]:.2f}, {load1[1]:.2f} after."
+    )
+    body = f"{notes}\n\n{markdown_table(list(COLUMNS), rows)}\n"
+    if errors:
+        body += "\nSource errors at the end of the window: " + " / ".join(errors) + "\n"
+    if args.quick:
+        print("\n" + body)
+    else:
+        publish("bench/plant.py", args.title, body)
+
+
+if __name__ == "__main__":
+    main()
