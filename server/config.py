@@ -10,6 +10,7 @@ from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from .ctrlx import check_base_url, client_ssl
+from .mock_ctrlx import HOLD_S
 
 
 class Settings(BaseSettings):
@@ -55,6 +56,8 @@ class Settings(BaseSettings):
     the process on purpose, whatever the machine (tests/e2e/test_overload.py). Leave it at 0."""
     mock_port: int = Field(0, ge=0, le=65535)
     """Port of the embedded mock (0: any free port)."""
+    mock_hold_s: float = Field(HOLD_S, ge=0.0, le=3600.0)
+    """How long an embedded mock holds a commanded pose before its demo cycle resumes."""
     # Look back (docs/recording.md).
     history_s: float = Field(600.0, gt=0.0, le=86_400.0)
     """Seconds of samples every source keeps for the timeline (memory is allocated up front)."""

@@ -62,6 +62,9 @@ class RobotInfo(_Message):
     """The data source whose samples drive this robot."""
     commandable: bool = False
     """True where the server accepts moves for it (embedded mock or --allow-commands)."""
+    hold_s: float | None = None
+    """Seconds its embedded mock holds a commanded pose before the demo cycle resumes
+    (None: a real controller, which does what it is told)."""
     params: dict[str, object]
     """What a client needs to redo the forward kinematics (SI units)."""
     joints: list[JointInfo]

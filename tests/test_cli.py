@@ -17,9 +17,7 @@ from tests.conftest import free_port
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def run_server(
-    *args: str, env: dict[str, str] | None = None
-) -> subprocess.CompletedProcess[str]:
+def run_server(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
     """``python -m server ARGS`` from the repository root (``env`` added), its output captured."""
     return subprocess.run(
         [sys.executable, "-m", "server", *args],
@@ -69,7 +67,7 @@ def test_cell_sources_get_the_same_checks(tmp_path: Path) -> None:
     assert result.returncode == 1 and "Traceback" not in result.stderr
     lines = result.stderr.splitlines()
     assert lines[0] == (
-        f'{cell}: source[0] "a".url: controller URL \'ftp://plc\': scheme \'ftp\' is not http '
+        f"{cell}: source[0] \"a\".url: controller URL 'ftp://plc': scheme 'ftp' is not http "
         "or https"
     )
     assert lines[1].startswith(f'{cell}: source[0] "a".ca: ') and "x.pem" in lines[1]

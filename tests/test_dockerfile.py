@@ -48,8 +48,13 @@ def test_dockerfile_entry_command_serves_health() -> None:
     check = [sys.executable, *healthcheck_cmd()[1:]]
     before = subprocess.run(check, cwd=ROOT, env=run_env, capture_output=True, timeout=30)
     assert before.returncode == 1, "no server yet: the health check must fail"
-    proc = subprocess.Popen([sys.executable, *cmd[1:]], cwd=ROOT, env=run_env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(
+        [sys.executable, *cmd[1:]],
+        cwd=ROOT,
+        env=run_env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
     try:
         deadline = time.monotonic() + 30
         while True:

@@ -78,7 +78,7 @@ def test_wheel_serves_the_page_and_a_mesh(tmp_path: Path) -> None:
                 assert proc.poll() is None, (tmp_path / "server.log").read_text()
                 assert time.monotonic() < deadline, "the installed server did not answer"
                 time.sleep(0.2)
-        assert resp.status == 200 and "<script type=\"module\"" in page
+        assert resp.status == 200 and '<script type="module"' in page
         with urllib.request.urlopen(f"{base}/static/js/main.js", timeout=5) as resp:
             assert resp.status == 200
         with urllib.request.urlopen(f"{base}/api/robots", timeout=5) as resp:

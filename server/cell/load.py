@@ -81,11 +81,18 @@ class Cell:
         """``text`` (a warning, an error) as viewers see it: paths relative to ``folder``."""
         return relative_paths(text, self.folder)
 
-    def infos(self, commandable: Callable[[Robot], bool]) -> list[RobotInfo]:
-        """Every robot as announced in ``hello``, its warnings as viewers see them."""
+    def infos(
+        self,
+        commandable: Callable[[Robot], bool],
+        hold_s: Callable[[Robot], float | None] = lambda _: None,
+    ) -> list[RobotInfo]:
+        """Every robot as announced in ``hello``, its warnings as viewers see them.
+
+        ``hold_s``: how long its source's embedded mock holds a commanded pose (None: none).
+        """
         infos = []
         for robot in self.robots:
-            info = robot.info(commandable(robot))
+            info = robot.info(commandable(robot), hold_s(robot))
             infos.append(info.model_copy(update={"warnings": list(map(self.shown, info.warnings))}))
         return infos
 
@@ -313,9 +320,7 @@ class _Builder:
         order: list[int] = []
         for k, entry in enumerate(entries):
             if entry.joint is None:
-                self._report(
-                    (f"{key}.joints[{k}].joint", "name every joint or none of them")
-                )
+                self._report((f"{key}.joints[{k}].joint", "name every joint or none of them"))
                 return None
             if entry.joint not in names:
                 self._report(
@@ -375,9 +380,7 @@ class _Builder:
         n = len(built.joint_names)
         for k, target in enumerate(spec.demo_targets):
             if len(target) != n:
-                self._report(
-                    (f"{key}.demo_targets[{k}]", f"needs {n} values, one per joint")
-                )
+                self._report((f"{key}.demo_targets[{k}]", f"needs {n} values, one per joint"))
                 return None
         return tuple(tuple(t) for t in spec.demo_targets)
 

@@ -134,13 +134,14 @@ class Robot:
             return None
         return f"/meshes/{self.name}/{link}.glb?v={_content_tag(path)}"
 
-    def info(self, commandable: bool = False) -> RobotInfo:
+    def info(self, commandable: bool = False, hold_s: float | None = None) -> RobotInfo:
         """The robot as announced in ``hello``."""
         return RobotInfo(
             name=self.name,
             kinematics=self.family,
             source=self.source,
             commandable=commandable,
+            hold_s=hold_s,
             params=self.kinematics.params(),
             joints=[
                 JointInfo(

@@ -15,6 +15,7 @@ from ..kinematics import (
     DHChain,
     LBRiiwa,
     UrdfChain,
+    configuration_names,
     matrix_from_pose7,
     pose7_from_matrix,
     rpy_from_matrix,
@@ -48,6 +49,8 @@ class InverseResult:
     """Joint solutions (SI), whether each is within limits, the chosen one, and ``ok``."""
 
     solutions: list[list[float]]
+    configurations: list[str]
+    """Each solution's configuration, by name (``configuration_names``)."""
     within_limits: list[bool]
     best: list[float] | None
     ok: bool
@@ -121,10 +124,12 @@ def inverse(
             solutions, within = free[None], _within(robot, free[None])
     if not ok:
         error = "reached only outside the joint limits" if len(solutions) else "out of reach"
-        return InverseResult(solutions.tolist(), within.tolist(), None, False, error)
+        names = configuration_names(kin, solutions) if len(solutions) else []
+        return InverseResult(solutions.tolist(), names, within.tolist(), None, False, error)
     if not all_solutions:
         solutions, within = best[None], np.ones(1, dtype=bool)
-    return InverseResult(solutions.tolist(), within.tolist(), best.tolist(), True, None)
+    names = configuration_names(kin, solutions)
+    return InverseResult(solutions.tolist(), names, within.tolist(), best.tolist(), True, None)
 
 
 def _within(robot: Robot, q: Array) -> BoolArray:

@@ -81,16 +81,12 @@ class ClearanceChecker:
             if np.any(lo_a - within_m > hi_b) or np.any(lo_b - within_m > hi_a):
                 continue
             first, second = self._robots[a].manager, self._robots[b].manager
-            hit, names = first.in_collision_other(
-                second, return_names=True
-            )
+            hit, names = first.in_collision_other(second, return_names=True)
             if hit:
                 link_a, link_b = min(names, key=lambda pair: (int(pair[0]), int(pair[1])))
                 distance = 0.0
             else:
-                distance, (link_a, link_b) = first.min_distance_other(
-                    second, return_names=True
-                )
+                distance, (link_a, link_b) = first.min_distance_other(second, return_names=True)
             if distance <= within_m:
                 near.append(Near(a, int(link_a), b, int(link_b), float(distance)))
         return near

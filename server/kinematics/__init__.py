@@ -25,6 +25,7 @@ from .calibration import (
     calibrate_linear_axis,
     calibrate_rotary_axis,
 )
+from .configurations import configuration_names
 from .dh import DHChain, IiwaSolutions, LBRiiwa, iiwa7
 from .motion import SpeedMove, TrapezoidMove, plan_movej, plan_speedj
 from .rpy import matrix_from_rpy, rpy_from_matrix
@@ -47,6 +48,7 @@ __all__ = [
     "calibrate_linear_axis",
     "calibrate_rotary_axis",
     "circle_circle_intersection",
+    "configuration_names",
     "matrix_from_pose_vector",
     "plan_movej",
     "plan_speedj",

@@ -2,13 +2,14 @@
 
 from .app import DEFAULT_LAG_S, build_app, serve
 from .faults import Faults
-from .machine import UNITS, AxisGroup, Machine, SimAxis, Trafo, demo_groups
+from .machine import HOLD_S, UNITS, AxisGroup, Machine, SimAxis, Trafo, demo_groups
 from .nodes import NodeTree, Snapshot
 from .state import STATE_KEY, MockState
 from .tls import MockCertificate, certificate_in, make_certificate
 
 __all__ = [
     "DEFAULT_LAG_S",
+    "HOLD_S",
     "STATE_KEY",
     "UNITS",
     "AxisGroup",

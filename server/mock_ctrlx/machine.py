@@ -4,9 +4,10 @@ Each group (one demo robot) repeats a cycle of synchronized trapezoidal moves
 (``server.kinematics.plan_movej``) between its demo targets, with a short
 dwell at each. Positions are a pure function of time (and of the commands
 given), so no background task is needed. A commanded move (``command``)
-takes its group over; once the group has rested at the target for
-``command_dwell_s`` it moves back to its first demo target and the cycle
-resumes from there, so a command never stops the demo for good.
+takes its group over; the group holds the commanded pose until the next
+command or for ``hold_s`` (``HOLD_S`` by default), then moves back to its first
+demo target and the cycle resumes from there, so a command never stops the
+demo for good.
 
 Values are in each axis's own unit (``deg``, ``rad``, ``mm`` or ``m``, as the
 data layer serves them), velocities per second and accelerations per second
@@ -32,6 +33,9 @@ from ..kinematics import TrapezoidMove, plan_movej
 Array = npt.NDArray[np.float64]
 Unit = Literal["deg", "rad", "mm", "m"]
 UNITS: tuple[str, ...] = get_args(Unit)
+HOLD_S = 30.0
+"""How long a commanded pose is held by default before the demo cycle resumes (s): long
+enough to look at it and compare it with the page, short enough that the demo goes on."""
 ACTUAL_POS = "motion/axs/{name}/state/values/actual/pos"
 """Where an axis's actual position is served unless ``SimAxis.node`` says otherwise."""
 
@@ -205,8 +209,8 @@ class _Commanded:
 class Machine:
     """All simulated axes, by group, plus a clock that tests can replace.
 
-    ``command_dwell_s``: how long a group rests at a commanded target before
-    it returns to its demo cycle.
+    ``hold_s``: how long a group holds a commanded pose (unless commanded
+    again) before it returns to its demo cycle.
     """
 
     def __init__(
@@ -214,7 +218,7 @@ class Machine:
         groups: Sequence[AxisGroup] | None = None,
         clock: Callable[[], float] = time.time,
         *,
-        command_dwell_s: float = 2.0,
+        hold_s: float = HOLD_S,
         lag_s: float = 0.0,
     ) -> None:
         self.groups = {g.name: g for g in (demo_groups() if groups is None else groups)}
@@ -226,7 +230,10 @@ class Machine:
         self._commanded: dict[str, _Commanded] = {}
         self._lock = threading.Lock()
         self.clock = clock
-        self.command_dwell_s = command_dwell_s
+        if hold_s < 0.0:
+            raise ValueError(f"hold_s must not be negative, not {hold_s}")
+        self.hold_s = hold_s
+        """How long a commanded pose is held before the demo cycle resumes (s)."""
         if lag_s < 0.0:
             raise ValueError(f"lag_s must not be negative, not {lag_s}")
         self.lag_s = lag_s
@@ -271,8 +278,8 @@ class Machine:
 
         Returns the move's duration (s); raises ValueError outside an axis's
         range. The move starts from rest: a mock need not blend into the
-        current motion. ``command_dwell_s`` after it ends, the group moves
-        back to its first demo target and resumes its cycle.
+        current motion. ``hold_s`` after it ends, the group moves back to its
+        first demo target and resumes its cycle.
         """
         axes = self.groups[group].axes
         goal = np.asarray(target, dtype=np.float64)
@@ -287,7 +294,7 @@ class Machine:
         first = np.asarray(self.groups[group].targets[0], dtype=np.float64)
         with self._lock:
             move = plan_movej(self.group_setpoints(group, t), goal, v, acc)
-            back_t0 = t + move.duration + self.command_dwell_s
+            back_t0 = t + move.duration + self.hold_s
             back = plan_movej(goal, first, v, acc)
             # Arrive, dwell as at every demo target, then the cycle's first move starts.
             resume_t = back_t0 + back.duration + self.groups[group].dwell_s
@@ -311,4 +318,4 @@ class Machine:
         return self._group_of[axis]
 
 
-__all__ = ["UNITS", "AxisGroup", "Machine", "SimAxis", "Trafo", "Unit", "demo_groups"]
+__all__ = ["HOLD_S", "UNITS", "AxisGroup", "Machine", "SimAxis", "Trafo", "Unit", "demo_groups"]

@@ -17,7 +17,14 @@ from ..cell import Cell, Robot
 from ..ctrlx import DataLayerError
 from ..history import History
 from ..stream import PROTOCOL_VERSIONS, Hub, Message, SourceHealth, cell_message, hello_message
-from .source import RunningSource, SourceDefaults, fingerprint, may_command, start_source
+from .source import (
+    RunningSource,
+    SourceDefaults,
+    fingerprint,
+    may_command,
+    mock_hold_s,
+    start_source,
+)
 
 log = logging.getLogger(__name__)
 
@@ -145,6 +152,11 @@ class Runtime:
         source = self.sources.get(robot.source)
         return source is not None and may_command(source.config, self.defaults.allow_commands)
 
+    def hold_s(self, robot: Robot) -> float | None:
+        """How long ``robot``'s embedded mock holds a commanded pose (None: no mock)."""
+        source = next((s for s in self.cell.sources if s.name == robot.source), None)
+        return None if source is None else mock_hold_s(source, self.defaults)
+
     async def move(self, robot: Robot, q: list[float]) -> None:
         """Command a synchronised move of ``robot`` to joints ``q`` (rad or m, hello order)."""
         if not self.commandable(robot):
@@ -170,7 +182,7 @@ class Runtime:
         return None if self.cell.path is None else self.cell.path.name
 
     def _publish_cell(self) -> None:
-        infos = self.cell.infos(self.commandable)
+        infos = self.cell.infos(self.commandable, self.hold_s)
         for protocol in PROTOCOL_VERSIONS:
             hello = hello_message(infos, self.session, protocol)
             self.hub.publish(f"hello:{protocol}", Message(hello), protocol=protocol)

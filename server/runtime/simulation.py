@@ -16,7 +16,7 @@ import zlib
 import numpy as np
 
 from ..cell import Robot
-from ..mock_ctrlx import DEFAULT_LAG_S, AxisGroup, Machine, SimAxis
+from ..mock_ctrlx import DEFAULT_LAG_S, HOLD_S, AxisGroup, Machine, SimAxis
 
 SPEED_SI = {"rad": (np.radians(60.0), np.radians(150.0)), "m": (0.25, 1.0)}
 """Velocity and acceleration limits of simulated joints, (per s, per s^2) in SI."""
@@ -31,15 +31,18 @@ FLOOR_M = -0.01
 DRAWN_TARGETS = 5
 
 
-def machine_for(robots: list[Robot]) -> Machine:
-    """A mock machine serving every joint node of ``robots`` (a node read twice moves once)."""
+def machine_for(robots: list[Robot], hold_s: float = HOLD_S) -> Machine:
+    """A mock machine serving every joint node of ``robots`` (a node read twice moves once).
+
+    A commanded pose is held ``hold_s`` before the demo cycle resumes.
+    """
     groups: list[AxisGroup] = []
     simulated: set[str] = set()
     for robot in robots:
         group = _group(robot, simulated)
         if group is not None:
             groups.append(group)
-    return Machine(groups, lag_s=DEFAULT_LAG_S)
+    return Machine(groups, lag_s=DEFAULT_LAG_S, hold_s=hold_s)
 
 
 def _group(robot: Robot, simulated: set[str]) -> AxisGroup | None:

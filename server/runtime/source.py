@@ -13,7 +13,7 @@ from ..cell import Robot, Source
 from ..ctrlx import Credentials, DataLayerClient, DataLayerError, Mode, check_base_url, client_ssl
 from ..history import History
 from ..history.ring import Array, IntArray
-from ..mock_ctrlx import build_app, serve
+from ..mock_ctrlx import HOLD_S, build_app, serve
 from ..recording import SourceReplay, load_source
 from ..stream import Acquisition, Hub, PollSettings, SourceHealth
 from .simulation import machine_for
@@ -32,6 +32,8 @@ class SourceDefaults:
     allow_commands: bool = False
     history_s: float = 600.0
     """Seconds of samples every source keeps (see server.history)."""
+    mock_hold_s: float = HOLD_S
+    """How long an embedded mock holds a commanded pose before its demo cycle resumes."""
     sample_cost_s: float = 0.0
     """CPU seconds wasted per sample (a test knob, see Settings.sample_cost_s)."""
 
@@ -79,6 +81,11 @@ def may_command(config: Source, allow_commands: bool) -> bool:
     return config.url is None or config.allow_commands or allow_commands
 
 
+def mock_hold_s(config: Source, defaults: SourceDefaults) -> float | None:
+    """How long ``config``'s embedded mock holds a commanded pose; None where it has none."""
+    return defaults.mock_hold_s if config.url is None and config.replay is None else None
+
+
 def fingerprint(config: Source, robots: list[Robot]) -> object:
     """What, if changed, needs the source restarted: its settings and what it reads or moves."""
     return (
@@ -100,7 +107,8 @@ async def start_source(
     mock: web.AppRunner | None = None
     url = config.url
     if url is None:
-        mock, url = await serve(build_app(machine_for(robots)), "127.0.0.1", 0)
+        machine = machine_for(robots, defaults.mock_hold_s)
+        mock, url = await serve(build_app(machine), "127.0.0.1", 0)
         log.info("source %s: embedded mock data layer at %s", config.name, url)
     client = DataLayerClient(
         url,

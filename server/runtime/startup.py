@@ -63,5 +63,6 @@ def source_defaults(settings: Settings) -> SourceDefaults:
         timeout_s=settings.request_timeout_s,
         allow_commands=settings.allow_commands,
         history_s=settings.history_s,
+        mock_hold_s=settings.mock_hold_s,
         sample_cost_s=settings.sample_cost_s,
     )

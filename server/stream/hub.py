@@ -112,9 +112,7 @@ class Hub:
         for viewer in self._viewers:
             viewer.forget()
 
-    def join(
-        self, protocol: int = 1, send_now: Callable[[Message], bool] | None = None
-    ) -> Viewer:
+    def join(self, protocol: int = 1, send_now: Callable[[Message], bool] | None = None) -> Viewer:
         """A new viewer, primed with the newest message of every key for its protocol."""
         viewer = Viewer(protocol, send_now)
         for key, (message, only) in self._latest.items():

@@ -80,9 +80,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app.state.max_viewers = settings.max_viewers
     token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
     hosts = HostPolicy(settings.host, settings.allow_host)
-    app.add_middleware(
-        Gatekeeper, token=token, allowed_origins=settings.allow_origin, hosts=hosts
-    )
+    app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin, hosts=hosts)
     app.add_middleware(LimitBody)
     app.add_middleware(SecurityHeaders, page=STATIC_DIR / "index.html")
     app.add_exception_handler(RequestValidationError, _validation_error)

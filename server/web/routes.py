@@ -45,7 +45,8 @@ async def robots(request: Request) -> list[dict[str, Any]]:
     runtime = runtime_of(request)
     healths = {source.name: source for source in runtime.healths()}  # a replica's too
     out = []
-    for robot, shown in zip(runtime.robots, runtime.cell.infos(runtime.commandable), strict=True):
+    shown_infos = runtime.cell.infos(runtime.commandable, runtime.hold_s)
+    for robot, shown in zip(runtime.robots, shown_infos, strict=True):
         info = shown.model_dump()
         source = healths.get(robot.source)
         state = None if source is None else source.robots.get(robot.name)

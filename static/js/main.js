@@ -64,6 +64,13 @@ window.linkview = Object.freeze( {
 		return { robot: app.plots.history ? app.selected : null, redraws: app.plots.redraws, redrawMs: app.plots.redrawMs, layout: app.plots.layout(), samples: app.plots.history ? app.plots.history.count : 0 };
 
 	},
+	/** The world axes' letters and the grid's spacing label: text and place on screen (CSS px). */
+	get orientation() {
+
+		const canvas = app.stage.renderer.domElement;
+		return app.stage.orientation.onScreen( app.stage.camera, canvas.clientWidth, canvas.clientHeight );
+
+	},
 	get quality() {
 
 		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings } };

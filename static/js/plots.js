@@ -8,6 +8,8 @@ const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
 const PLOT_HEIGHT = 66; // px of drawing area per joint (axes and padding come on top)
 const MIN_SPAN = 2; // a still joint gets +-1 deg (or mm) of range, not a flat line at a tick
 const REACH = 0.5; // a limit within this share of the data's span is brought into view
+const ENLARGED_MIN = 4 * PLOT_HEIGHT; // an enlarged plot is at least this tall (drawing area, px)
+const ENLARGED_SPARE = 90; // px of the panel left to the heading, caption and time axis
 
 /**
  * The last WINDOW_S seconds of one robot's joints, in a ring buffer: a fixed
@@ -146,16 +148,55 @@ function limitsPlugin( limits, colors ) {
 }
 
 /**
+ * Velocities (display units per s) of one joint between consecutive samples
+ * `ys` at times `xs` (s), into `vs`: a finite difference of what the plot
+ * already holds, null where either sample is missing. Returns [min, max].
+ */
+function differentiate( xs, ys, vs ) {
+
+	let lo = Infinity;
+	let hi = - Infinity;
+	vs[ 0 ] = null;
+	for ( let i = 1; i < ys.length; i ++ ) {
+
+		const dt = xs[ i ] - xs[ i - 1 ];
+		if ( ys[ i ] === null || ys[ i - 1 ] === null || ! ( dt > 0 ) ) {
+
+			vs[ i ] = null;
+			continue;
+
+		}
+		const v = ( ys[ i ] - ys[ i - 1 ] ) / dt;
+		vs[ i ] = v;
+		lo = Math.min( lo, v );
+		hi = Math.max( hi, v );
+
+	}
+	return [ lo, hi ];
+
+}
+
+/**
  * One small uPlot chart per joint of the selected robot: the last 10 s, the
  * limits drawn, redrawn from the robot's JointHistory by the app's readout tick
  * (in the animation loop, with the other readouts: a timer runs late on a page
  * busy rendering). The charts' data arrays are allocated once and refilled in place.
+ * Optionally each also shows the joint's velocity (dashed, its own axis on the
+ * right), and one joint's chart can be enlarged to the panel's height.
  */
 class JointPlots {
 
-	constructor( container ) {
+	constructor( container, velocityToggle = null ) {
 
 		this.container = container;
+		this.velocity = velocityToggle ? velocityToggle.checked : false; // velocity traces shown
+		this.enlarged = null; // the joint whose chart fills the panel, or null: all of them
+		velocityToggle?.addEventListener( 'change', () => {
+
+			this.velocity = velocityToggle.checked;
+			this.show( this.history, this.color );
+
+		} );
 		this.history = null;
 		this.color = '#2f6fd6';
 		this._plots = []; // { plot, xs, ys, limits, range }
@@ -168,6 +209,7 @@ class JointPlots {
 	show( history, color ) {
 
 		this._destroy();
+		if ( history !== this.history ) this.enlarged = null;
 		this.history = history;
 		this.color = color;
 		if ( ! history ) return;
@@ -179,41 +221,86 @@ class JointPlots {
 			near: 'rgba(217, 138, 0, 0.16)',
 		};
 		const width = Math.max( 160, this.container.clientWidth || 280 );
-		history.joints.forEach( ( joint, j ) => {
+		const shown = this.enlarged === null ? history.joints.map( ( _, j ) => j ) : [ this.enlarged ];
+		const height = this.enlarged === null ? PLOT_HEIGHT : this._enlargedHeight();
+		for ( const j of shown ) {
 
+			const joint = history.joints[ j ];
+			const unit = displayUnit( joint );
 			const limits = limitsOf( joint, history.scales[ j ] );
 			const row = document.createElement( 'figure' );
 			row.className = 'plot';
 			const caption = document.createElement( 'figcaption' );
-			caption.textContent = `${joint.name} (${displayUnit( joint )})`;
+			const title = document.createElement( 'span' );
+			title.className = 'plot-title';
+			title.textContent = `${joint.name} (${unit})${this.velocity ? ` · velocity (${unit}/s, dashed)` : ''}`;
+			caption.append( title );
+			const enlarge = document.createElement( 'button' );
+			enlarge.type = 'button';
+			enlarge.className = 'plot-size';
+			enlarge.textContent = this.enlarged === null ? '⤢' : '⤡';
+			enlarge.title = this.enlarged === null ? `enlarge the plot of ${joint.name}` : 'back to every joint\'s plot';
+			enlarge.setAttribute( 'aria-label', enlarge.title );
+			enlarge.addEventListener( 'click', () => this.enlarge( this.enlarged === null ? j : null ) );
+			caption.append( enlarge );
 			row.append( caption );
 			this.container.append( row );
 			const xs = new Array( CAPACITY ).fill( - WINDOW_S );
 			const ys = new Array( CAPACITY ).fill( null );
-			const last = j === history.joints.length - 1;
-			// Every plot has the same y-axis width, so the time axes line up; the last shows them.
+			const vs = this.velocity ? new Array( CAPACITY ).fill( null ) : null;
+			const last = j === shown[ shown.length - 1 ];
+			const grid = { stroke: colors.grid, width: 1 };
+			const numbers = ( u, splits ) => splits.map( ( v ) => `${+ v.toFixed( 2 )}` );
+			const axes = [
+				{ show: last, stroke: colors.axis, size: 18, label: 'time (s)', labelSize: 12, labelFont: '10px system-ui', font: '10px system-ui', grid, ticks: { show: false } },
+				{ stroke: colors.axis, size: 44, space: 18, font: '10px system-ui', grid, ticks: { show: false }, values: numbers },
+			];
+			const series = [ {}, { stroke: color, width: 1.5, points: { show: false }, spanGaps: false } ];
+			const scales = {
+				x: { time: false, range: [ - WINDOW_S, 0 ] },
+				y: { auto: false, range: [ - 1, 1 ] }, // fitted to the window in redraw()
+			};
+			if ( vs ) {
+
+				// Its own scale and axis (right): a velocity is not read against the position's ticks.
+				scales.v = { auto: false, range: [ - 1, 1 ] };
+				axes.push( { scale: 'v', side: 1, stroke: colors.axis, size: 40, space: 18, font: '10px system-ui', grid: { show: false }, ticks: { show: false }, values: numbers } );
+				series.push( { scale: 'v', stroke: color, width: 1, dash: [ 4, 3 ], alpha: 0.8, points: { show: false }, spanGaps: false } );
+
+			}
+			// Every plot has the same y-axis widths, so the time axes line up; the last shows them.
 			const plot = onCpuCanvas( () => new uPlot( {
 				width,
-				height: PLOT_HEIGHT,
+				height,
 				legend: { show: false },
-				padding: [ 6, 6, last ? null : 6, 0 ], // uPlot's automatic padding took half the height
+				padding: [ 6, vs ? 0 : 6, last ? null : 6, 0 ], // uPlot's automatic padding took half the height
 				cursor: { show: false },
 				select: { show: false },
-				scales: {
-					x: { time: false, range: [ - WINDOW_S, 0 ] },
-					y: { auto: false, range: [ - 1, 1 ] }, // fitted to the window in redraw()
-				},
-				axes: [
-					{ show: last, stroke: colors.axis, size: 18, label: 'time (s)', labelSize: 12, labelFont: '10px system-ui', font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false } },
-					{ stroke: colors.axis, size: 44, space: 18, font: '10px system-ui', grid: { stroke: colors.grid, width: 1 }, ticks: { show: false }, values: ( u, splits ) => splits.map( ( v ) => `${+ v.toFixed( 2 )}` ) },
-				],
-				series: [ {}, { stroke: color, width: 1.5, points: { show: false }, spanGaps: false } ],
+				scales,
+				axes,
+				series,
 				plugins: [ limitsPlugin( limits, colors ) ],
-			}, [ xs, ys ], row ) );
+			}, vs ? [ xs, ys, vs ] : [ xs, ys ], row ) );
 			plot.root.setAttribute( 'aria-label', `plot of ${joint.name} over the last ${WINDOW_S} s` );
-			this._plots.push( { plot, xs, ys, limits, range: null, outer: PLOT_HEIGHT, fitted: false } );
+			this._plots.push( { plot, joint: j, xs, ys, vs, limits, range: null, vrange: null, height, outer: height, fitted: false } );
 
-		} );
+		}
+
+	}
+
+	/** Enlarge joint `j`'s chart to the panel's height (null: back to every joint's). */
+	enlarge( j ) {
+
+		this.enlarged = j;
+		this.show( this.history, this.color );
+
+	}
+
+	_enlargedHeight() {
+
+		// The panel's visible height, less its heading, the caption and the time axis.
+		const body = this.container.closest( '.panel-body' );
+		return Math.max( ENLARGED_MIN, ( body ? body.clientHeight : 0 ) - ENLARGED_SPARE );
 
 	}
 
@@ -232,15 +319,15 @@ class JointPlots {
 		const oldest = nowMs - WINDOW_S * 1000;
 		// Chronological copy into the fixed arrays; unused leading slots are gaps at the left edge.
 		const lead = CAPACITY - count;
-		for ( const [ j, entry ] of this._plots.entries() ) {
+		for ( const entry of this._plots ) {
 
-			const { plot, xs, ys } = entry;
+			const { plot, xs, ys, vs, joint: j } = entry;
 			if ( ! entry.fitted && plot.bbox.height > 0 ) {
 
 				// uPlot's height is the whole chart, laid out after a microtask: once it is,
 				// add back what the axes and padding took from the drawing area.
 				entry.fitted = true;
-				entry.outer += PLOT_HEIGHT - plot.bbox.height / uPlot.pxRatio;
+				entry.outer += entry.height - plot.bbox.height / uPlot.pxRatio;
 				plot.setSize( { width: plot.width, height: entry.outer } );
 
 			}
@@ -269,14 +356,28 @@ class JointPlots {
 				}
 
 			}
-			plot.setData( [ xs, ys ], false );
+			let rescaled = false;
+			if ( vs ) {
+
+				const [ vlo, vhi ] = differentiate( xs, ys, vs );
+				const vrange = fitRange( vlo, vhi, null, entry.vrange );
+				if ( vrange !== entry.vrange ) {
+
+					entry.vrange = vrange;
+					plot.setScale( 'v', { min: vrange[ 0 ], max: vrange[ 1 ] } );
+					rescaled = true;
+
+				}
+
+			}
+			plot.setData( vs ? [ xs, ys, vs ] : [ xs, ys ], false );
 			const range = fitRange( lo, hi, entry.limits, entry.range );
 			if ( range !== entry.range ) {
 
 				entry.range = range;
 				plot.setScale( 'y', { min: range[ 0 ], max: range[ 1 ] } ); // redraws
 
-			} else plot.redraw( false, false );
+			} else if ( ! rescaled ) plot.redraw( false, false );
 
 		}
 		this.redraws ++;
@@ -303,7 +404,16 @@ class JointPlots {
 	/** For tests: each plot's drawing height (CSS px), y range and limits, in display units. */
 	layout() {
 
-		return this._plots.map( ( { plot, limits, ys } ) => ( {
+		const range = ( values ) => {
+
+			const drawn = values ? values.filter( ( v ) => v !== null ) : [];
+			return drawn.length ? [ Math.min( ...drawn ), Math.max( ...drawn ) ] : null;
+
+		};
+		return this._plots.map( ( { plot, limits, ys, vs, joint } ) => ( {
+			joint,
+			traces: plot.series.length - 1,
+			velocity: range( vs ),
 			data: [ Math.min( ...ys.filter( ( v ) => v !== null ) ), Math.max( ...ys.filter( ( v ) => v !== null ) ) ],
 			height: plot.bbox.height / uPlot.pxRatio,
 			left: plot.bbox.left / uPlot.pxRatio,

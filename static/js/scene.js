@@ -2,6 +2,7 @@ import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
 import { NoRenderer } from './no_webgl.js';
+import { OrientationAids } from './orientation.js';
 
 // The robot data is Z up (metres); make every camera and light agree.
 THREE.Object3D.DEFAULT_UP.set( 0, 0, 1 );
@@ -19,6 +20,9 @@ const VIEWS = {
 	front: new THREE.Vector3( 0, - 1, 0.02 ).normalize(),
 	side: new THREE.Vector3( 1, 0, 0.02 ).normalize(),
 };
+
+const GRID_SIZE_M = 8;
+const GRID_DIVISIONS = 32; // 250 mm cells, written on the floor by OrientationAids
 
 const THEMES = {
 	light: { grid: [ 0x9aa1ab, 0xc6cbd2 ], shadow: 0x1d2430 },
@@ -149,6 +153,7 @@ class Stage {
 		floor.renderOrder = - 2;
 		this.scene.add( floor );
 		this.floor = floor;
+		this.orientation = new OrientationAids( this.scene ); // world axes, grid spacing
 		this._makeGrid( THEMES.light );
 
 	}
@@ -162,7 +167,7 @@ class Stage {
 
 		}
 		// GridHelper lies in XZ; the floor here is the XY plane.
-		const grid = new THREE.GridHelper( 8, 32, theme.grid[ 0 ], theme.grid[ 1 ] );
+		const grid = new THREE.GridHelper( GRID_SIZE_M, GRID_DIVISIONS, theme.grid[ 0 ], theme.grid[ 1 ] );
 		grid.rotation.x = Math.PI / 2;
 		grid.material.transparent = true;
 		grid.material.opacity = 0.7;
@@ -170,6 +175,7 @@ class Stage {
 		grid.renderOrder = - 1; // lines over the floor shadow (renderOrder - 2)
 		this.scene.add( grid );
 		this.grid = grid;
+		this.orientation.setGridSpacing( GRID_SIZE_M / GRID_DIVISIONS );
 
 	}
 
@@ -356,6 +362,7 @@ class Stage {
 		this.floor.geometry.dispose();
 		this.floor.material.dispose();
 		this.grid.dispose();
+		this.orientation.dispose();
 		this._disposeEnvironment();
 		this.renderer.dispose();
 		this.renderer.domElement.remove();

@@ -3,7 +3,7 @@ import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { forward, inverse, move, reason } from './api.js';
 import { element, setText } from './dom.js';
 import { quaternionFromRpy, rpyFromQuaternion } from './rpy.js';
-import { RAD_TO_DEG, displayScale, formatJoint } from './units.js';
+import { RAD_TO_DEG, displayScale, fixed, formatJoint } from './units.js';
 
 const JOG_INTERVAL_MS = 150; // at most one jog move per this, and never two in flight
 const HANDS_OFF_MS = 1500; // sliders follow the robot again this long after the last touch
@@ -40,7 +40,7 @@ class SimPanel {
 		this.ghosts = [];
 		this.solutions = null; // { joints: [[...]], within: [...], tcp: [[...]] }
 		this.selected = -1;
-		this.moving = null; // { tcp: [x, y, z], since }
+		this.moving = null; // a commanded move being followed: { tcp: [x, y, z], closest, arrivedAt, left }
 		this.jogs = 0; // move requests sent by jogging (tests: coalesced)
 		this._sliders = [];
 		this._touched = - Infinity;
@@ -185,6 +185,7 @@ class SimPanel {
 		this._jogBusy = true;
 		this._jogSentAt = performance.now();
 		this.jogs ++;
+		this.moving = null; // jogging takes over from a followed move
 		move( this.view.name, target ).then( ( result ) => {
 
 			if ( ! result.ok ) setText( this.statusEl, `Jog refused: ${reason( result )}` );
@@ -271,6 +272,7 @@ class SimPanel {
 
 		}
 		this._markerFromFields();
+		this.moving = null; // a new target: the last move's status gives way
 		const request = ++ this._request;
 		this._clearGhosts();
 		this.moveButton.disabled = true;
@@ -351,10 +353,17 @@ class SimPanel {
 			radio.value = String( i );
 			radio.disabled = ! answer.within_limits[ i ];
 			radio.addEventListener( 'change', () => this.select( i ) );
-			const text = row.map( ( value, j ) => formatJoint( value, joints[ j ] ) ).join( ' ' );
-			label.append( radio, element( 'span', 'joints-text', `#${i + 1} ${text}` ) );
-			if ( ! answer.within_limits[ i ] ) label.append( element( 'span', 'outside', 'outside the limits' ) );
-			label.title = `distance from the current joints: ${Math.sqrt( row.reduce( ( s, v, j ) => s + ( v - current[ j ] ) ** 2, 0 ) ).toFixed( 3 )}`;
+			// Which configuration, how far from now and whether allowed; the raw joints in the tooltip.
+			const name = answer.configurations ? answer.configurations[ i ] : `configuration ${i + 1}`;
+			const within = answer.within_limits[ i ];
+			label.append(
+				radio,
+				element( 'span', 'configuration', name ),
+				element( 'span', 'distance', largestMove( row, current, joints ) ),
+				element( 'span', within ? 'inside' : 'outside', within ? 'within limits' : 'outside the limits' ),
+			);
+			const text = row.map( ( value, j ) => `${joints[ j ].name} ${formatJoint( value, joints[ j ] )}` ).join( ', ' );
+			label.title = `#${i + 1} ${name}: ${text}`;
 			item.append( label );
 			this.solutionsEl.append( item );
 
@@ -390,7 +399,7 @@ class SimPanel {
 			return;
 
 		}
-		this.moving = { tcp: tcp.slice( 0, 3 ), closest: Infinity, arrived: false };
+		this.moving = { tcp: tcp.slice( 0, 3 ), closest: Infinity, arrivedAt: null, left: false };
 		setText( this.statusEl, 'Moving…' );
 
 	}
@@ -418,26 +427,7 @@ class SimPanel {
 
 			const d = Math.hypot( frame.tcp[ 0 ] - moving.tcp[ 0 ], frame.tcp[ 1 ] - moving.tcp[ 1 ], frame.tcp[ 2 ] - moving.tcp[ 2 ] );
 			moving.closest = Math.min( moving.closest, d );
-			if ( moving.arrived ) {
-
-				// The status follows the pose: "Arrived" only while it is still there.
-				if ( d > LEFT_M ) {
-
-					this.moving = null;
-					setText( this.statusEl, `Moved on: the TCP is ${( d * 1000 ).toFixed( 0 )} mm from the target; the demo cycle (or the controller) moves it again.` );
-
-				}
-
-			} else if ( d <= ARRIVED_M ) {
-
-				moving.arrived = true;
-				setText( this.statusEl, `Arrived: the TCP is ${( d * 1000 ).toFixed( 2 )} mm from the target.` );
-
-			} else {
-
-				setText( this.statusEl, `Moving: ${( d * 1000 ).toFixed( 1 )} mm to go.` );
-
-			}
+			setText( this.statusEl, moveStatus( moving, d, view.info, now ) );
 
 		}
 
@@ -463,6 +453,59 @@ class SimPanel {
 		this.marker.removeFromParent();
 
 	}
+
+}
+
+/**
+ * How far joints `row` are from `current` (SI, hello order), as a person reads it: the largest
+ * single joint move, in degrees for rotary joints and millimetres for linear ones.
+ */
+function largestMove( row, current, joints ) {
+
+	const largest = { rad: 0, m: 0 };
+	row.forEach( ( value, j ) => {
+
+		const unit = joints[ j ].unit === 'm' ? 'm' : 'rad';
+		largest[ unit ] = Math.max( largest[ unit ], Math.abs( value - current[ j ] ) );
+
+	} );
+	const parts = [];
+	if ( joints.some( ( joint ) => joint.unit !== 'm' ) ) parts.push( `${fixed( largest.rad * RAD_TO_DEG )}°` );
+	if ( joints.some( ( joint ) => joint.unit === 'm' ) ) parts.push( `${fixed( largest.m * 1000 )} mm` );
+	return `largest joint move ${parts.join( ', ' )}`;
+
+}
+
+/**
+ * What a followed move's status says at TCP distance `d` (m) from its target: it follows
+ * the actual pose, never a stale "Arrived". `robot.hold_s` is how long an embedded mock
+ * holds the commanded pose before its demo cycle resumes (null: a real controller).
+ */
+function moveStatus( moving, d, robot, now ) {
+
+	if ( moving.left ) {
+
+		const mm = ( d * 1000 ).toFixed( 0 );
+		if ( robot.hold_s == null ) return `Moved on: the TCP is ${mm} mm from the target (the controller moved it).`;
+		return `Demo cycle resumed: the TCP is ${mm} mm from the target.`;
+
+	}
+	if ( moving.arrivedAt === null ) {
+
+		if ( d > ARRIVED_M ) return `Moving: ${( d * 1000 ).toFixed( 1 )} mm to go.`;
+		moving.arrivedAt = now;
+
+	}
+	if ( d > LEFT_M ) {
+
+		moving.left = true;
+		return moveStatus( moving, d, robot, now );
+
+	}
+	const arrived = `Arrived: the TCP is ${( d * 1000 ).toFixed( 2 )} mm from the target.`;
+	if ( robot.hold_s == null ) return arrived;
+	const left = Math.max( 0, Math.ceil( robot.hold_s - ( now - moving.arrivedAt ) / 1000 ) );
+	return `${arrived} Holding the commanded pose (demo cycle resumes in ${left} s).`;
 
 }
 

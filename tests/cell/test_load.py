@@ -59,8 +59,7 @@ def test_a_wrong_unit_is_named_with_the_units_allowed(tmp_path: Path) -> None:
 def test_a_linear_unit_on_a_rotary_joint_is_refused(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace('{ node = "b" }', '{ node = "b", unit = "mm" }'))
     assert problems(path) == [
-        "robot[0] \"kin\".joints[1].unit: joint 'a1' is rotary: unit must be deg or rad, "
-        "not 'mm'"
+        "robot[0] \"kin\".joints[1].unit: joint 'a1' is rotary: unit must be deg or rad, not 'mm'"
     ]
 
 
@@ -74,8 +73,7 @@ def test_a_joint_count_that_does_not_match_the_kinematics(tmp_path: Path) -> Non
 def test_an_unknown_kinematics_type(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace("type12", "scara"))
     assert problems(path) == [
-        'robot[0] "kin".kinematics.type: must be one of type12, dh, axis_group, urdf, '
-        "not 'scara'"
+        "robot[0] \"kin\".kinematics.type: must be one of type12, dh, axis_group, urdf, not 'scara'"
     ]
 
 
@@ -159,16 +157,14 @@ def test_a_missing_mesh_in_a_mesh_dir(tmp_path: Path) -> None:
 
 def test_an_unknown_source(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + TYPE12.replace('source = "line1"', 'source = "line9"'))
-    assert problems(path) == [
-        'robot[0] "kin".source: no source named \'line9\' (sources: line1)'
-    ]
+    assert problems(path) == ["robot[0] \"kin\".source: no source named 'line9' (sources: line1)"]
 
 
 def test_duplicate_names(tmp_path: Path) -> None:
     path = write(tmp_path, SOURCE + SOURCE + TYPE12 + TYPE12)
     assert problems(path) == [
-        'source[1] "line1".name: duplicate name \'line1\' (also source[0])',
-        'robot[1] "kin".name: duplicate name \'kin\' (also robot[0])',
+        "source[1] \"line1\".name: duplicate name 'line1' (also source[0])",
+        "robot[1] \"kin\".name: duplicate name 'kin' (also robot[0])",
     ]
 
 
@@ -207,7 +203,7 @@ def test_every_problem_is_reported_at_once(tmp_path: Path) -> None:
         'source[0] "line1".password_env: environment variable PW is not set',
         'robot[0] "kin".kinematics.type: must be one of type12, dh, axis_group, urdf, '
         "not 'DH' (did you mean 'dh'?)",
-        'robot[1] "arm".joints[3].unit: must be \'deg\', \'rad\', \'mm\' or \'m\', '
+        "robot[1] \"arm\".joints[3].unit: must be 'deg', 'rad', 'mm' or 'm', "
         "not 'degree' (did you mean 'deg'?)",
         'robot[1] "arm".joints: the type12 kinematics has 2 joints (a0, a1); 4 given',
     ]
@@ -224,8 +220,7 @@ def test_a_key_the_schema_refused_is_not_reported_twice(tmp_path: Path) -> None:
     joints = [ { node = "x", unit = "metre" } ]
     """
     assert problems(write(tmp_path, SOURCE + robot)) == [
-        'robot[0] "slide".joints[0].unit: must be \'deg\', \'rad\', \'mm\' or \'m\', '
-        "not 'metre'"
+        "robot[0] \"slide\".joints[0].unit: must be 'deg', 'rad', 'mm' or 'm', not 'metre'"
     ]
 
 
@@ -280,7 +275,7 @@ def test_urdf_joints_may_be_named_in_any_order(tmp_path: Path) -> None:
     assert arm.joints[0].node == "n_shoulder_pan_joint" and arm.joints[5].node == "n_wrist_3_joint"
     wrong = textwrap.dedent(robot).replace('joint = "elbow_joint"', 'joint = "knee_joint"')
     (message,) = problems(write(tmp_path, SOURCE + wrong, "wrong.toml"))
-    assert message.startswith('robot[0] "arm".joints[3].joint: no movable joint \'knee_joint\'')
+    assert message.startswith("robot[0] \"arm\".joints[3].joint: no movable joint 'knee_joint'")
 
 
 def test_check_prints_one_line_per_robot_and_exits_0(tmp_path: Path) -> None:

@@ -83,9 +83,7 @@ async def test_relogin_after_the_mock_invalidates_all_tokens() -> None:
 async def test_short_tokens_are_renewed_before_they_expire_and_revoked_on_close() -> None:
     async with running(token_lifetime_s=1.0) as mock:
         async with client(mock.url) as c:
-            await collect(
-                follow(c, KIN12, PUBLISH_S, "poll"), duration_s=2.5, at_least=11
-            )
+            await collect(follow(c, KIN12, PUBLISH_S, "poll"), duration_s=2.5, at_least=11)
             token = c.tokens.token
             assert token is not None and c.tokens.logins >= 3
         assert mock.count("PUT", "/automation/", status=401) == 0, "renewed before expiry"

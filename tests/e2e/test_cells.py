@@ -116,7 +116,7 @@ async def test_reload_on_save_restarts_only_what_changed(tmp_path: Path) -> None
             # A broken file: the running cell stays, every viewer is told why.
             path.write_text(path.read_text().replace('source = "line2"', 'source = "line3"', 1))
             notice = await next_of(ws, "cell")
-            assert 'robot[1] "b".source: no source named \'line3\'' in notice["error"]
+            assert "robot[1] \"b\".source: no source named 'line3'" in notice["error"]
             assert (await next_of(ws, "frame", "c"))["ok"], "the old cell still streams"
             state = await health(base)
             assert "no source named 'line3'" in state["cell"]["error"]

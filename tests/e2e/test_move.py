@@ -38,6 +38,22 @@ async def test_a_move_brings_the_mocks_robot_to_the_target() -> None:
                 await asyncio.sleep(0.1)
 
 
+async def test_the_mock_holds_the_target_as_long_as_hello_says_then_resumes_its_cycle() -> None:
+    target = np.radians([20.0, -10.0, 15.0, -70.0, 10.0, 40.0, 5.0])
+    async with running_server(Settings(mock_hold_s=1.5)) as base:
+        async with aiohttp.ClientSession() as http, http.get(base + "/api/robots") as resp:
+            robots = await resp.json()
+        assert [r["hold_s"] for r in robots] == [1.5, 1.5, 1.5]
+        status, _ = await post(base, "/api/robots/iiwa7/move", {"joints": target.tolist()})
+        assert status == 202
+        async with asyncio.timeout(20):
+            while not np.allclose(await newest_joints(base, "iiwa7"), target, atol=1e-9):
+                await asyncio.sleep(0.1)
+        async with asyncio.timeout(20):  # the hold ends: the demo cycle takes the robot away
+            while np.allclose(await newest_joints(base, "iiwa7"), target, atol=1e-3):
+                await asyncio.sleep(0.1)
+
+
 async def test_moves_outside_the_limits_or_of_the_wrong_size_are_refused() -> None:
     async with running_server(Settings()) as base:
         status, answer = await post(base, "/api/robots/kin12/move", {"joints": [1.0, 0.0]})
@@ -55,6 +71,7 @@ async def test_a_real_controller_is_never_moved_without_allow_commands() -> None
         async with aiohttp.ClientSession() as http, http.get(base + "/api/robots") as resp:
             robots = await resp.json()
         assert [r["commandable"] for r in robots] == [False, False, False]
+        assert [r["hold_s"] for r in robots] == [None, None, None]  # a controller holds nothing
     async with (
         running_mock() as (app, url),
         running_server(Settings(ctrlx_url=url, allow_commands=True)) as base,

@@ -14,9 +14,10 @@ from tests.conftest import running_mock, running_server
 
 
 async def test_stalled_viewer_does_not_slow_a_reading_viewer() -> None:
-    async with running_mock() as (_, mock_url), running_server(
-        Settings(ctrlx_url=mock_url)
-    ) as base:
+    async with (
+        running_mock() as (_, mock_url),
+        running_server(Settings(ctrlx_url=mock_url)) as base,
+    ):
         host, port = base.removeprefix("http://").split(":")
         stalled_sock = socket.create_connection((host, int(port)))
         # A tiny receive window makes the server's sends to it back up quickly.

@@ -163,10 +163,12 @@ def test_offset_examples(offset_of: Callable[[float], float], expected: float) -
     np.testing.assert_allclose(targets, [9 * math.pi / 4])
     np.testing.assert_allclose(wm.axis_group_get_actual_positions("AxisGroup1"), targets)
     wm.axis_group_offset_positions("AxisGroup1", [offset_of(float(targets[0]))])
-    np.testing.assert_allclose(wm.axis_group_get_target_positions("AxisGroup1"), [expected],
-                               atol=1e-12)
-    np.testing.assert_allclose(wm.axis_group_get_actual_positions("AxisGroup1"), [expected],
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        wm.axis_group_get_target_positions("AxisGroup1"), [expected], atol=1e-12
+    )
+    np.testing.assert_allclose(
+        wm.axis_group_get_actual_positions("AxisGroup1"), [expected], atol=1e-12
+    )
 
 
 def test_offset_during_a_move_shifts_the_whole_profile() -> None:
@@ -233,66 +235,142 @@ RULES: list[tuple[str, Callable[[WorldModel], object], str]] = [
     ("bad pose size", lambda w: w.axis_group_add("G", [0, 0, 0]), "pose"),
     ("unknown ref frame", lambda w: w.axis_group_add("G", POSE, "nowhere"), "does not exist"),
     ("delete unknown", lambda w: w.axis_group_delete("nope"), "does not exist"),
-    ("axis to unknown group", lambda w: w.axis_group_add_axis("nope", "A", "", POSE, 0, 1, 1),
-     "does not exist"),
-    ("empty axis name", lambda w: w.axis_group_add_axis("AxisGroup1", "", "", POSE, 0, 1, 1),
-     "empty"),
-    ("duplicate axis", lambda w: w.axis_group_add_axis("AxisGroup1", "Axis1", "", POSE, 0, 1, 1),
-     "unique"),
-    ("axis named like group",
-     lambda w: w.axis_group_add_axis("AxisGroup1", "AxisGroup1", "", POSE, 0, 1, 1), "unique"),
-    ("self parent", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "X", POSE, 0, 1, 1),
-     "closed chain"),
-    ("unknown parent", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "Y", POSE, 0, 1, 1),
-     "must exist in axis group"),
-    ("type 2", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 2, 1, 1),
-     "type can only be 0"),
-    ("v_limit 0", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 0, 1),
-     "v_limit must be positive"),
-    ("a_limit < 0", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, -1),
-     "a_limit must be positive"),
-    ("q_limits size", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, [1]),
-     "size of q_limits must be 2"),
-    ("q_limits empty on add",
-     lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, []),
-     "size of q_limits must be 2"),
-    ("q_limits order",
-     lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, [1, 1]),
-     "lower limit must be less than the upper"),
-    ("index 6", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, 6),
-     r"range of \[0, 5\]"),
-    ("index -1", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, -1),
-     r"range of \[0, 5\]"),
-    ("index taken", lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, 3),
-     "already occupied"),
+    (
+        "axis to unknown group",
+        lambda w: w.axis_group_add_axis("nope", "A", "", POSE, 0, 1, 1),
+        "does not exist",
+    ),
+    (
+        "empty axis name",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "", "", POSE, 0, 1, 1),
+        "empty",
+    ),
+    (
+        "duplicate axis",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "Axis1", "", POSE, 0, 1, 1),
+        "unique",
+    ),
+    (
+        "axis named like group",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "AxisGroup1", "", POSE, 0, 1, 1),
+        "unique",
+    ),
+    (
+        "self parent",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "X", POSE, 0, 1, 1),
+        "closed chain",
+    ),
+    (
+        "unknown parent",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "Y", POSE, 0, 1, 1),
+        "must exist in axis group",
+    ),
+    (
+        "type 2",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 2, 1, 1),
+        "type can only be 0",
+    ),
+    (
+        "v_limit 0",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 0, 1),
+        "v_limit must be positive",
+    ),
+    (
+        "a_limit < 0",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, -1),
+        "a_limit must be positive",
+    ),
+    (
+        "q_limits size",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, [1]),
+        "size of q_limits must be 2",
+    ),
+    (
+        "q_limits empty on add",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, []),
+        "size of q_limits must be 2",
+    ),
+    (
+        "q_limits order",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, [1, 1]),
+        "lower limit must be less than the upper",
+    ),
+    (
+        "index 6",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, 6),
+        r"range of \[0, 5\]",
+    ),
+    (
+        "index -1",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, -1),
+        r"range of \[0, 5\]",
+    ),
+    (
+        "index taken",
+        lambda w: w.axis_group_add_axis("AxisGroup1", "X", "", POSE, 0, 1, 1, None, 3),
+        "already occupied",
+    ),
     ("update unknown", lambda w: w.axis_group_update_axis("nope", v_limit=1), "does not exist"),
-    ("update q_limits size", lambda w: w.axis_group_update_axis("Axis1", q_limits=[1, 2, 3]),
-     "size of q_limits must be 0 or 2"),
-    ("update q_limits order", lambda w: w.axis_group_update_axis("Axis1", q_limits=[2, 1]),
-     "lower limit"),
-    ("update index taken", lambda w: w.axis_group_update_axis("Axis1", axis_index=1),
-     "already occupied"),
-    ("update index range", lambda w: w.axis_group_update_axis("Axis1", axis_index=7),
-     r"range of \[0, 5\]"),
+    (
+        "update q_limits size",
+        lambda w: w.axis_group_update_axis("Axis1", q_limits=[1, 2, 3]),
+        "size of q_limits must be 0 or 2",
+    ),
+    (
+        "update q_limits order",
+        lambda w: w.axis_group_update_axis("Axis1", q_limits=[2, 1]),
+        "lower limit",
+    ),
+    (
+        "update index taken",
+        lambda w: w.axis_group_update_axis("Axis1", axis_index=1),
+        "already occupied",
+    ),
+    (
+        "update index range",
+        lambda w: w.axis_group_update_axis("Axis1", axis_index=7),
+        r"range of \[0, 5\]",
+    ),
     ("update type", lambda w: w.axis_group_update_axis("Axis1", type=3), "type can only be"),
     ("index of unknown axis", lambda w: w.axis_group_get_axis_index("nope"), "does not exist"),
     ("name of free index", lambda w: w.axis_group_get_axis_name(0), "no axis has axis_index"),
-    ("positions of unknown group", lambda w: w.axis_group_get_actual_positions("nope"),
-     "does not exist"),
-    ("targets of unknown group", lambda w: w.axis_group_get_target_positions("nope"),
-     "does not exist"),
-    ("offset size", lambda w: w.axis_group_offset_positions("AxisGroup1", [1.0]),
-     "must match the number of axes"),
-    ("movej size", lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0, 3.0], 1, 1),
-     "must match the number of axes"),
-    ("movej a = 0", lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0], 0, 1),
-     r"a must be in range of \(0, 1\]"),
-    ("movej v > 1", lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0], 1, 1.5),
-     r"v must be in range of \(0, 1\]"),
+    (
+        "positions of unknown group",
+        lambda w: w.axis_group_get_actual_positions("nope"),
+        "does not exist",
+    ),
+    (
+        "targets of unknown group",
+        lambda w: w.axis_group_get_target_positions("nope"),
+        "does not exist",
+    ),
+    (
+        "offset size",
+        lambda w: w.axis_group_offset_positions("AxisGroup1", [1.0]),
+        "must match the number of axes",
+    ),
+    (
+        "movej size",
+        lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0, 3.0], 1, 1),
+        "must match the number of axes",
+    ),
+    (
+        "movej a = 0",
+        lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0], 0, 1),
+        r"a must be in range of \(0, 1\]",
+    ),
+    (
+        "movej v > 1",
+        lambda w: w.axis_group_movej("AxisGroup1", [1.0, 2.0], 1, 1.5),
+        r"v must be in range of \(0, 1\]",
+    ),
     ("movej unknown group", lambda w: w.axis_group_movej("nope", [1.0], 1, 1), "does not exist"),
     ("speedj size", lambda w: w.axis_group_speedj("AxisGroup1", [1.0], 1), "must match"),
-    ("speedj a > 1", lambda w: w.axis_group_speedj("AxisGroup1", [1.0, 1.0], 2),
-     r"a must be in range of \(0, 1\]"),
+    (
+        "speedj a > 1",
+        lambda w: w.axis_group_speedj("AxisGroup1", [1.0, 1.0], 2),
+        r"a must be in range of \(0, 1\]",
+    ),
     ("link_poses size", lambda w: w.link_poses("AxisGroup1", [0.0]), r"shape \(\.\.\., 2\)"),
     ("frame of unknown", lambda w: w.frame_pose("nope"), "does not exist"),
     ("advance backwards", lambda w: w.advance(-1.0), "non-negative"),
@@ -356,8 +434,10 @@ def _naive_frame(params: dict, q: dict[str, float], name: str) -> np.ndarray:
     """World pose of axis ``name`` from ``params`` alone, one frame at a time."""
     axes = {ax["name"]: ax for ax in params["axes"]}
     ax = axes[name]
-    parent = _naive_matrix(params["pose"]) if ax["parent"] == "" else _naive_frame(
-        params, q, ax["parent"]
+    parent = (
+        _naive_matrix(params["pose"])
+        if ax["parent"] == ""
+        else _naive_frame(params, q, ax["parent"])
     )
     joint = np.eye(4)
     if ax["type"] == 0:
@@ -371,8 +451,14 @@ def _tree_world(rng: np.random.Generator) -> WorldModel:
     """Six axes, mixed types, a tree three deep, indices scrambled against insertion order."""
     wm = WorldModel()
     wm.axis_group_add("G", rng.normal(size=6))
-    spec = [("a", "", 0, 4), ("b", "a", 1, 0), ("c", "", 1, 5), ("d", "b", 0, 2),
-            ("e", "a", 0, 1), ("f", "G", 0, 3)]
+    spec = [
+        ("a", "", 0, 4),
+        ("b", "a", 1, 0),
+        ("c", "", 1, 5),
+        ("d", "b", 0, 2),
+        ("e", "a", 0, 1),
+        ("f", "G", 0, 3),
+    ]
     for name, parent, kind, index in spec:
         wm.axis_group_add_axis("G", name, parent, rng.normal(size=6), kind, 1, 1, [-2, 2], index)
     return wm
@@ -393,8 +479,9 @@ def test_link_poses_agree_with_a_naive_chain(seed: int) -> None:
             values = dict(zip(names, q[i, j], strict=True))
             np.testing.assert_allclose(poses[i, j, 0], _naive_matrix(params["pose"]), atol=1e-12)
             for k, name in enumerate(names):
-                np.testing.assert_allclose(poses[i, j, k + 1], _naive_frame(params, values, name),
-                                           atol=1e-10)
+                np.testing.assert_allclose(
+                    poses[i, j, k + 1], _naive_frame(params, values, name), atol=1e-10
+                )
             assert ok[i, j] == bool(np.all(np.abs(q[i, j]) <= 2.0))
 
 
@@ -407,8 +494,9 @@ def test_link_poses_agree_with_frame_pose() -> None:
     assert ok.shape == () and bool(ok)
     np.testing.assert_allclose(poses[0], wm.frame_pose("G"), atol=1e-12)
     for k in range(6):
-        np.testing.assert_allclose(poses[k + 1], wm.frame_pose(wm.axis_group_get_axis_name(k)),
-                                   atol=1e-12)
+        np.testing.assert_allclose(
+            poses[k + 1], wm.frame_pose(wm.axis_group_get_axis_name(k)), atol=1e-12
+        )
 
 
 def test_link_poses_flags_out_of_limit_and_non_finite_positions() -> None:

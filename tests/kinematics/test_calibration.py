@@ -21,8 +21,15 @@ HEADSTOCK = [[0.1, 0.0, 0.001, 0, 0, 0], [0.0, 0.1, 0.001, 0, 0, 0], [-0.1, 0.0,
 
 def _circle_samples(frame: np.ndarray, radius: float, angles: np.ndarray, z: float = 0.0):
     """Poses on a circle about the frame's +Z, at ``angles`` from its +X (no orientation)."""
-    local = np.stack([radius * np.cos(angles), radius * np.sin(angles), np.full_like(angles, z),
-                      np.ones_like(angles)], -1)
+    local = np.stack(
+        [
+            radius * np.cos(angles),
+            radius * np.sin(angles),
+            np.full_like(angles, z),
+            np.ones_like(angles),
+        ],
+        -1,
+    )
     points = local @ frame.T
     return np.concatenate([points[:, :3], np.zeros((len(angles), 3))], axis=1)
 

@@ -41,15 +41,17 @@ def test_table_and_limits_are_the_iiwa_7_r800() -> None:
     np.testing.assert_allclose(params["d"], [0.34, 0, 0.40, 0, 0.40, 0, 0.126])
     np.testing.assert_allclose(params["a"], np.zeros(7))
     np.testing.assert_allclose(np.degrees(params["alpha"]), [-90, 90, 90, -90, -90, 90, 0])
-    np.testing.assert_allclose(np.degrees(params["limits"]),
-                               np.stack([-np.array(LIMITS_DEG), LIMITS_DEG], axis=-1))
+    np.testing.assert_allclose(
+        np.degrees(params["limits"]), np.stack([-np.array(LIMITS_DEG), LIMITS_DEG], axis=-1)
+    )
 
 
 def test_flange_at_zero_joints_is_1_266_m_straight_up() -> None:
     pose, ok = ROBOT.forward(np.zeros(7))
     assert ok
-    np.testing.assert_allclose(pose, [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.266], [0, 0, 0, 1]],
-                               atol=1e-15)
+    np.testing.assert_allclose(
+        pose, [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1.266], [0, 0, 0, 1]], atol=1e-15
+    )
 
 
 def test_link_frames_agree_with_roboticstoolbox() -> None:
@@ -106,8 +108,9 @@ def test_configurations_follow_the_arm_elbow_wrist_numbering() -> None:
     np.testing.assert_array_equal(wrist_sign, [1, -1, 1, -1, 1, -1, 1, -1])
     # Flipping the wrist turns joints 5 and 7 by half a turn and keeps 1-4.
     np.testing.assert_allclose(sol.q[0::2, :4], sol.q[1::2, :4], atol=1e-12)
-    np.testing.assert_allclose(np.abs(wrap(sol.q[0::2, [4, 6]] - sol.q[1::2, [4, 6]])), math.pi,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        np.abs(wrap(sol.q[0::2, [4, 6]] - sol.q[1::2, [4, 6]])), math.pi, atol=1e-9
+    )
 
 
 def test_singular_wrist_shares_the_turn_between_joints_5_and_7() -> None:

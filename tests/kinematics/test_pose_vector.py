@@ -71,8 +71,9 @@ def test_matrices_from_random_quaternions_round_trip(quat) -> None:
     matrix = np.eye(4)
     matrix[:3, :3] = Rotation.from_quat(q).as_matrix()
     matrix[:3, 3] = [0.1, -0.2, 0.3]
-    np.testing.assert_allclose(matrix_from_pose_vector(pose_vector_from_matrix(matrix)), matrix,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        matrix_from_pose_vector(pose_vector_from_matrix(matrix)), matrix, atol=1e-12
+    )
 
 
 def test_matrix_is_a_proper_rigid_transform() -> None:

@@ -90,7 +90,8 @@ def test_batches_keep_their_leading_axes() -> None:
     rpy = np.random.default_rng(0).uniform(-1.5, 1.5, (4, 5, 3))
     rot = matrix_from_rpy(rpy)
     assert rot.shape == (4, 5, 3, 3)
-    np.testing.assert_allclose(rot @ np.swapaxes(rot, -1, -2),
-                               np.broadcast_to(np.eye(3), rot.shape), atol=1e-15)
+    np.testing.assert_allclose(
+        rot @ np.swapaxes(rot, -1, -2), np.broadcast_to(np.eye(3), rot.shape), atol=1e-15
+    )
     np.testing.assert_allclose(np.linalg.det(rot), 1.0, atol=1e-14)
     np.testing.assert_allclose(rpy_from_matrix(rot), rpy, atol=1e-12)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from server.kinematics import Type12
-from server.mock_ctrlx import Machine, demo_groups
+from server.mock_ctrlx import HOLD_S, Machine, demo_groups
 
 LIMITS_DEG = {f"iiwa_a{i + 1}": lim for i, lim in enumerate((170, 120, 170, 120, 170, 120, 175))}
 
@@ -63,19 +63,19 @@ def test_commands_move_there_and_hold() -> None:
     )
 
 
-@pytest.mark.parametrize("dwell_s", [0.5, 2.0])
-def test_a_commanded_move_returns_to_the_demo_cycle_smoothly(dwell_s: float) -> None:
-    machine, fresh, t0 = Machine(command_dwell_s=dwell_s), Machine(), 1000.0
+@pytest.mark.parametrize("hold_s", [0.5, 2.0])
+def test_a_commanded_move_returns_to_the_demo_cycle_smoothly(hold_s: float) -> None:
+    machine, fresh, t0 = Machine(hold_s=hold_s), Machine(), 1000.0
     group = machine.groups["iiwa"]
     duration = machine.command("iiwa", [10.0, -20.0, 30.0, -40.0, 50.0, 60.0, -70.0], t=t0)
     arrived = t0 + duration
-    assert machine.group_positions("iiwa", arrived + 0.9 * dwell_s) == pytest.approx(
+    assert machine.group_positions("iiwa", arrived + 0.9 * hold_s) == pytest.approx(
         [10.0, -20.0, 30.0, -40.0, 50.0, 60.0, -70.0]
     )
     # Back on the cycle for good: from some time on it is the demo cycle, shifted in time.
     commanded = machine._commanded["iiwa"]
     resume = commanded.resume_t
-    assert resume > arrived + dwell_s
+    assert resume > arrived + hold_s
     for dt in (0.0, 0.77, 3.1, 11.0, 40.0):
         assert machine.group_positions("iiwa", resume + dt) == pytest.approx(
             fresh.group_positions("iiwa", dt)
@@ -87,8 +87,21 @@ def test_a_commanded_move_returns_to_the_demo_cycle_smoothly(dwell_s: float) -> 
     assert np.all(np.abs(np.diff(q, axis=0)) <= v_max * step * (1 + 1e-9))
 
 
+def test_a_commanded_pose_is_held_30_s_by_default_or_until_the_next_command() -> None:
+    machine, target = Machine(), [10.0, -20.0, 30.0, -40.0, 50.0, 60.0, -70.0]
+    arrived = machine.command("iiwa", target, t=0.0)
+    assert machine.hold_s == HOLD_S == 30.0
+    assert machine.group_positions("iiwa", arrived + 29.9) == pytest.approx(target)
+    assert machine.group_positions("iiwa", arrived + 30.5) != pytest.approx(target)
+    second = [0.0, 20.0, -30.0, 40.0, -50.0, 0.0, 70.0]
+    took = machine.command("iiwa", second, t=arrived + 10.0)  # the next command ends the hold
+    assert machine.group_positions("iiwa", arrived + 10.0 + took) == pytest.approx(second)
+    with pytest.raises(ValueError, match="hold_s"):
+        Machine(hold_s=-1.0)
+
+
 def test_a_new_command_during_the_return_starts_from_where_the_group_is() -> None:
-    machine = Machine(command_dwell_s=0.1)
+    machine = Machine(hold_s=0.1)
     duration = machine.command("kin12", [20.0, 20.0], t=0.0)
     t = duration + 0.1 + 0.2  # on the way back to the first demo target
     here = machine.group_positions("kin12", t)

@@ -100,7 +100,7 @@ def test_setpoints_lead_the_actual_positions_by_the_lag() -> None:
 
 async def test_a_command_moves_the_setpoint_first_and_the_actual_after() -> None:
     now, lag = [2000.0], 0.1
-    machine = Machine(clock=lambda: now[0], lag_s=lag, command_dwell_s=60.0)
+    machine = Machine(clock=lambda: now[0], lag_s=lag, hold_s=60.0)
     start = machine.group_setpoints("pos", now[0])[0]
     app = build_app(machine)
     async with running(app) as mock, aiohttp.ClientSession() as http:

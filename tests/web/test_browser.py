@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 import time
 from collections.abc import Iterator
 from typing import Any
@@ -40,7 +41,8 @@ NOT_NETWORK = ("data", "blob", "about")
 def server_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """``python -m server`` on a free loopback port for the whole module."""
     log = tmp_path_factory.mktemp("server") / "server.log"
-    with server_process(free_port(), log) as url:
+    # A short hold of a commanded pose keeps the Move test quick (the default is 30 s).
+    with server_process(free_port(), log, env={"LINKVIEW_MOCK_HOLD_S": "3"}) as url:
         yield url
 
 
@@ -153,7 +155,7 @@ def test_joint_plots_are_drawn_and_move(viewer: Watched) -> None:
     page.select_option("#selected-robot", "iiwa7")
     page.wait_for_function("() => window.linkview.plots.robot === 'iiwa7'")
     assert page.locator("#plots canvas").count() == 7
-    assert page.locator("#plots figcaption").first.inner_text() == "a1 (°)"
+    assert page.locator("#plots .plot-title").first.inner_text() == "a1 (°)"
     before = page.evaluate("window.linkview.plots.redraws")
     first = _plot_pixels(page)
     page.wait_for_timeout(600)
@@ -193,9 +195,53 @@ def test_joint_plots_are_tall_aligned_and_fitted_to_their_data(viewer: Watched) 
                 assert not y0 <= limit <= y1, plot
         narrower += (y1 - y0) < (limits[1] - limits[0]) / 2
     assert narrower >= 3, layout  # the demo moves most joints over far less than their range
-    captions = page.locator("#plots figcaption").all_inner_texts()
+    captions = page.locator("#plots .plot-title").all_inner_texts()
     assert all(c.endswith(("(°)", "(mm)")) for c in captions), captions  # units on every y axis
     _screenshot(page, "plots_fitted.png")
+
+
+def test_velocity_traces_and_one_plot_enlarged(viewer: Watched) -> None:
+    page = viewer.page
+    page.select_option("#selected-robot", "iiwa7")
+    page.wait_for_function("() => window.linkview.plots.layout.length === 7")
+    assert all(p["traces"] == 1 for p in page.evaluate("window.linkview.plots.layout"))
+    page.check("#plot-velocity")
+    # A second (velocity) trace on every plot, from the samples' differences, with its unit.
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.length === 7"
+        " && window.linkview.plots.layout.every(p => p.traces === 2 && p.velocity !== null)",
+        timeout=TIMEOUT_MS,
+    )
+    title = page.locator("#plots .plot-title").first.inner_text()
+    assert title == "a1 (°) · velocity (°/s, dashed)", title
+    # The demo moves the iiwa's joints at up to 60 °/s: velocities of that order, not 0, not 1e4.
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.some(p => Math.max(-p.velocity[0], p.velocity[1]) > 5)",
+        timeout=TIMEOUT_MS,
+    )
+    for plot in page.evaluate("window.linkview.plots.layout"):
+        assert max(-plot["velocity"][0], plot["velocity"][1]) < 1000, plot
+    _screenshot(page, "plots_velocity.png")
+    page.uncheck("#plot-velocity")
+    page.wait_for_function("() => window.linkview.plots.layout.every(p => p.traces === 1)")
+
+    # Enlarge a4's plot: it alone fills the panel's height; the same button brings all back.
+    small = page.evaluate("window.linkview.plots.layout[3].height")
+    page.click("button[aria-label='enlarge the plot of a4']")
+    page.wait_for_function(
+        f"() => window.linkview.plots.layout.length === 1"
+        f" && window.linkview.plots.layout[0].height > 3 * {small}",
+        timeout=TIMEOUT_MS,
+    )
+    assert page.evaluate("window.linkview.plots.layout[0].joint") == 3
+    assert page.locator("#plots canvas").count() == 1
+    _screenshot(page, "plot_enlarged.png")
+    page.click("#plots button.plot-size")
+    page.wait_for_function(
+        "() => window.linkview.plots.layout.length === 7"
+        " && window.linkview.plots.layout.every(p => p.height < 100)",
+        timeout=TIMEOUT_MS,
+    )
 
 
 def test_hiding_a_robot_removes_it(viewer: Watched) -> None:
@@ -261,6 +307,30 @@ def test_view_presets_focus_and_home(viewer: Watched) -> None:
     assert labels == [True, True, True]  # every robot is on screen
 
 
+def test_world_axes_and_grid_spacing_are_labelled(viewer: Watched) -> None:
+    page = viewer.page
+    page.keyboard.press("Home")  # the iso view of everything
+    page.wait_for_timeout(500)  # the camera's damping settles
+    labels = page.evaluate("window.linkview.orientation")
+    assert [label["text"] for label in labels] == ["X", "Y", "Z", "grid 250 mm"], labels
+    assert all(label["inView"] for label in labels), labels
+    # Drawn where they are: each label's own colour around its place on screen (the letters
+    # in the axes' red, green and blue; the grid's spacing in dark grey on the light floor).
+    shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+    colours = {
+        "X": (224, 65, 47),
+        "Y": (47, 158, 68),
+        "Z": (47, 111, 214),
+        "grid 250 mm": (74, 82, 96),
+    }
+    for label in labels:
+        x, y = round(label["x"]), round(label["y"])
+        box = np.asarray(shot.crop((x - 20, y - 14, x + 20, y + 14)), dtype=np.float64)
+        near = np.abs(box - colours[label["text"]]).max(axis=-1) < 40
+        assert near.sum() >= 15, (label, int(near.sum()))
+    _screenshot(page, "orientation.png")
+
+
 def _type_target(page: Page, values: dict[str, float]) -> None:
     for key, value in values.items():
         page.fill(f"#target-{key}", f"{value:.1f}")
@@ -283,15 +353,30 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
     assert sim["ghosts"] >= 2 and sim["selected"] >= 0, sim  # the iiwa reaches it several ways
     assert page.locator("#solutions input[type=radio]:checked").count() == 1
     assert "reach the target" in page.inner_text("#sim-status")
+    # Each configuration by its name, how far each is from now and whether it is allowed;
+    # the raw joint angles only in the tooltip.
+    rows = page.locator("#solutions li label")
+    names = [rows.nth(i).locator(".configuration").inner_text() for i in range(rows.count())]
+    assert len(names) == len(set(names)) == sim["ghosts"], names
+    flags = r"shoulder (front|back) · elbow [+−] · wrist (no-flip|flip)"
+    assert all(re.fullmatch(flags, name) for name in names), names
+    for i in range(rows.count()):
+        row = rows.nth(i)
+        assert re.fullmatch(r"largest joint move \d+\.\d°", row.locator(".distance").inner_text())
+        allowed = row.locator(".inside, .outside").inner_text()
+        assert allowed in ("within limits", "outside the limits")
+        assert (row.get_attribute("title") or "").count("°") == 7  # the raw joints, in the tooltip
     page.check("#gizmo-on")  # the target can be dragged in the view too
     _screenshot(page, "ghosts.png")
     page.uncheck("#gizmo-on")
 
     page.click("#move")
     page.wait_for_function(
-        "() => document.getElementById('sim-status').textContent.startsWith('Arrived')",
+        "() => document.getElementById('sim-status').textContent.startsWith('Arrived')"
+        " && document.getElementById('sim-status').textContent"
+        ".includes('Holding the commanded pose (demo cycle resumes in ')",
         timeout=TIMEOUT_MS,
-    )
+    )  # the mock holds it for the time hello announced (3 s here), and the page says so
     # The TCP of the joints the page shows, by the server's own FK, is on the target typed:
     # the solution is exact (some 1e-8 m), 1 um leaves room for float32 joints on the wire.
     # "Arrived" is said within a tolerance a person can see; the arm settles on the
@@ -306,10 +391,15 @@ def test_simulation_target_ghosts_move_and_unreachable(viewer: Watched, server_u
         page.wait_for_timeout(200)
     assert math.dist(reached, target) <= 1e-6, (reached, target)
     assert page.evaluate("window.linkview.sim.ghosts") >= 2  # the preview stays until a new solve
-    # The embedded mock goes back to its demo cycle after a while: the status follows the
-    # pose, it does not keep saying "Arrived".
+    # The embedded mock goes back to its demo cycle after the hold: the status follows the
+    # pose, it does not keep saying "Arrived", and keeps following it.
     page.wait_for_function(
-        "() => document.getElementById('sim-status').textContent.startsWith('Moved on')",
+        "() => document.getElementById('sim-status').textContent.startsWith('Demo cycle resumed')",
+        timeout=TIMEOUT_MS,
+    )
+    page.wait_for_function(
+        "() => /the TCP is ([0-9]{3,}) mm from the target/.test("
+        "document.getElementById('sim-status').textContent)",
         timeout=TIMEOUT_MS,
     )
 

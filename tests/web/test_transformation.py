@@ -10,6 +10,7 @@ import numpy as np
 
 from server.config import Settings
 from server.kinematics import matrix_from_pose7, matrix_from_rpy
+from server.kinematics.configurations import NUMERICAL, TYPE12_BRANCHES
 from tests.conftest import demo_cell, running_mock, running_server
 
 
@@ -56,6 +57,9 @@ async def test_ik_of_fk_returns_to_the_same_tcp_for_every_robot() -> None:
                 if robot.family != "type12":  # Type 12 keeps a fixed TCP orientation
                     np.testing.assert_allclose(again, expected_pose(tcp_i), atol=1e-12)
                 assert len(ik["solutions"]) == len(ik["within_limits"]) >= 1
+                assert len(ik["configurations"]) == len(ik["solutions"])
+                if robot.family != "dh":  # the iiwa's are named by flags (test below)
+                    assert set(ik["configurations"]) <= {NUMERICAL, TYPE12_BRANCHES}
 
 
 def expected_pose(tcp7: list[float]) -> np.ndarray:
@@ -78,6 +82,14 @@ async def test_iiwa_ik_lists_the_starting_configuration_among_all_eight() -> Non
     assert status == 200 and ik["ok"]
     solutions = np.array(ik["solutions"])
     assert solutions.shape[1] == 7 and 1 <= len(solutions) <= 8
+    # Each configuration by name (shoulder, elbow and wrist flags), one per solution, distinct.
+    names = ik["configurations"]
+    assert len(names) == len(solutions) == len(set(names))
+    for row, name in zip(solutions, names, strict=True):
+        assert name.split(" · ")[1:] == [
+            "elbow −" if row[3] < 0 else "elbow +",
+            "wrist flip" if row[5] < 0 else "wrist no-flip",
+        ]
     assert np.min(np.abs(solutions - q).max(axis=1)) < 1e-8
     np.testing.assert_allclose(ik["best"], q, atol=1e-8)
     assert np.allclose(tcp, robot.poses(np.array(ik["best"]))[1], atol=1e-9)

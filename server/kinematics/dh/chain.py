@@ -29,7 +29,6 @@ Convention = Literal["standard", "modified"]
 _LARGE_BATCH = 256
 
 
-
 def _vector(values: npt.ArrayLike, n: int, name: str) -> Array:
     out = np.array(values, dtype=np.float64).reshape(-1)
     if out.shape != (n,):

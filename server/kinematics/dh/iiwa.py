@@ -151,6 +151,22 @@ class LBRiiwa(DHChain):
             within_limits=self.within_limits(q8).reshape(lead + (8,)),
         )
 
+    def configuration_flags(self, q: npt.ArrayLike) -> npt.NDArray[np.int64]:
+        """``(arm, elbow, wrist)`` flags ``(..., 3)`` of joints ``q`` ``(..., 7)`` rad.
+
+        The module doc's flags, read off the joints (so also for a solution the
+        numerical solver found): ``4 * arm + 2 * elbow + wrist`` is its index in
+        ``inverse_all``. ``arm`` is 1 where the wrist centre lies behind joint 1
+        (on the -x side of frame 1), ``elbow`` where joint 4 is negative,
+        ``wrist`` where joint 6 is negative (KUKA's status bits, in another order).
+        """
+        joints = np.asarray(q, dtype=np.float64)
+        flange, _ = self.forward(joints)
+        wrist = flange[..., :3, 3] - self.d_flange * flange[..., :3, 2]
+        ahead = np.cos(joints[..., 0]) * wrist[..., 0] + np.sin(joints[..., 0]) * wrist[..., 1]
+        flags = np.stack([ahead < 0.0, joints[..., 3] < 0.0, joints[..., 5] < 0.0], axis=-1)
+        return flags.astype(np.int64)
+
     def inverse(
         self, pose: npt.ArrayLike, q_ref: npt.ArrayLike | None = None, limited: bool = True
     ) -> tuple[Array, BoolArray]:
