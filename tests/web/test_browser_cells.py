@@ -116,6 +116,9 @@ def test_robots_without_meshes_and_a_reloaded_cell(browser: Browser, tmp_path: P
         assert page.evaluate("window.linkview.linkMatrices('free')") == posed  # held
         assert "unreachable" in page.inner_text("article.robot[data-robot='free'] .robot-error")
         assert "unreachable" in page.inner_text(".label[data-robot='free'] .note")
+        # The mock holds a commanded pose (30 s); the next command ends the hold.
+        status, _ = post_json(f"{url}/api/robots/free/move", {"joints": [0.0, 0.0]})
+        assert status == 202
         page.wait_for_function(
             "() => !window.linkview.robotState('free').greyed", timeout=TIMEOUT_MS
         )
