@@ -145,9 +145,9 @@ class Acquisition:
         self.tap.sample(self._seq, sample)
         if self.health.mark_sample(sample.received):
             self.publish_status()
-        start = time.perf_counter()
         if self._settings.sample_cost_s:
             _burn(self._settings.sample_cost_s)
+        start = time.perf_counter()
         frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
         self.kinematics_time.observe(time.perf_counter() - start)
         t_sent = time.time()

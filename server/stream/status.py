@@ -117,10 +117,7 @@ class SourceHealth:
         self.last_window = (received, processed)
         was = self.overloaded
         if received and processed < OVERLOADED_BELOW * received:
-            self.overloaded = (
-                f"overloaded: {processed} of {plural(received, 'sample')} processed, "
-                f"{self.rate_hz:.0f} frames/s per robot"
-            )
+            self.overloaded = overloaded_text(processed, received, f"{self.rate_hz:.0f}")
         else:
             self.overloaded = None
         return (was is None) != (self.overloaded is None)
@@ -170,6 +167,14 @@ class SourceHealth:
         return orjson.dumps({"type": "status", "sources": [self.status().model_dump()]}).decode()
 
 
+def overloaded_text(processed: int, received: int, rate: str) -> str:
+    """The overload line, "overloaded: N of M samples processed, R frames/s per robot"."""
+    return (
+        f"overloaded: {processed} of {plural(received, 'sample')} processed, "
+        f"{rate} frames/s per robot"
+    )
+
+
 def load_summary(sources: list[SourceHealth]) -> dict[str, object]:
     """Samples received and processed by every source, and in the last windows, for health.
 
@@ -182,10 +187,8 @@ def load_summary(sources: list[SourceHealth]) -> dict[str, object]:
     text = None
     overloaded = [s for s in sources if s.overloaded]
     if overloaded and rates:
-        text = (
-            f"overloaded: {processed} of {plural(received, 'sample')} processed, "
-            f"{float(np.median(rates)):.0f} frames/s per robot (slowest {min(rates):.0f})"
-        )
+        rate = f"{float(np.median(rates)):.0f}"
+        text = overloaded_text(processed, received, rate) + f" (slowest {min(rates):.0f})"
     elif overloaded:  # a replica: the workers count, and say so per source
         text = f"{overloaded[0].name}: {overloaded[0].overloaded}"
         text += f" (and {plural(len(overloaded) - 1, 'other source')})" * (len(overloaded) > 1)
