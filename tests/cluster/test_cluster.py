@@ -7,8 +7,10 @@ the measured takeover gap is a figure of bench/cluster.py.
 from __future__ import annotations
 
 import asyncio
+import json
 import time
 from collections import Counter
+from collections.abc import Callable
 from pathlib import Path
 
 import aiohttp
@@ -46,6 +48,16 @@ async def balanced(
             await asyncio.sleep(0.2)
 
 
+async def poll(url: str, ok: Callable[[str], bool], timeout_s: float = START_TIMEOUT_S) -> None:
+    """GET ``url`` until ``ok(body)`` holds; time out after ``timeout_s``."""
+    async with aiohttp.ClientSession() as http, asyncio.timeout(timeout_s):
+        while True:
+            async with http.get(url) as resp:
+                if ok(await resp.text()):
+                    return
+            await asyncio.sleep(0.2)
+
+
 def worker_of(role: Role, held: dict[str, str]) -> list[str]:
     """The sources ``role`` (a worker process) holds: its id names its pid."""
     return [s for s, h in held.items() if f"-{role.process.pid}-" in h]
@@ -68,19 +80,15 @@ async def test_every_viewer_on_either_replica_gets_the_same_frames(
     held = await balanced(redis_server, 2)
     assert sorted(len(worker_of(w, held)) for w in workers) == [2, 2]
 
-    async with aiohttp.ClientSession() as http:
-        async with http.get(r2.base + "/metrics") as resp:
-            metrics = await resp.text()
-        # The newest raw joint values travel with the workers' status records (once a second).
-        async with asyncio.timeout(START_TIMEOUT_S):
-            while True:
-                async with http.get(r1.base + "/api/robots") as resp:
-                    robots = await resp.json()
-                if all(j["value"] is not None for r in robots for j in r["joints"]):
-                    break
-                await asyncio.sleep(0.2)
-    for source in SOURCES:  # a replica's metrics come from what the workers publish
-        assert f'linkview_source_live{{source="{source}"}} 1.0' in metrics
+    # A replica's metrics come from what the workers publish. Balancing has just handed
+    # sources from one worker to the other, so one may be briefly stale: poll, bounded.
+    wanted = [f'linkview_source_live{{source="{source}"}} 1.0' for source in SOURCES]
+    await poll(r2.base + "/metrics", lambda text: all(line in text for line in wanted))
+    # The newest raw joint values travel with the workers' status records (once a second).
+    await poll(
+        r1.base + "/api/robots",
+        lambda text: all(j["value"] is not None for r in json.loads(text) for j in r["joints"]),
+    )
 
     a, b = await asyncio.gather(watch(r1.base, 3.0), watch(r2.base, 3.0))
     assert a.hello == b.hello, "replicas must greet alike (same session, same robots)"
