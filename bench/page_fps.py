@@ -13,7 +13,9 @@ browser, at 1280x800 with the demo cell and TCP trails on:
   DOM), at the lowest level's settings, in the same browser.
 
 Frames are ``requestAnimationFrame`` callbacks counted after a warm-up; every
-callback of the page renders. Frame rates depend on what else the machine does:
+callback of the page renders. Beside each rate: Chromium's CPU time per frame
+in its GPU process (SwiftShader's rasterising and compositing, by default) and
+in the page's renderer process, read from /proc, which says where the time goes. Frame rates depend on what else the machine does:
 the load average is printed with the table. Usage: ``python bench/page_fps.py
 [--seconds 5]``; writes docs/benchmarks.md.
 """
@@ -24,6 +26,7 @@ import argparse
 import os
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 from playwright.sync_api import Page, sync_playwright
@@ -112,13 +115,50 @@ window.ready = true;
 </script></body></html>"""
 
 
-def frames_per_second(page: Page, seconds: float) -> float:
+def chromium_cpu_s() -> dict[str, float]:
+    """CPU seconds so far of Chromium's processes, summed by kind (``gpu-process``, ``renderer``).
+
+    Read from /proc: which process burns the time tells rasterising and compositing
+    (the GPU process, where SwiftShader runs by default) from the page's own work.
+    """
+    tick = os.sysconf("SC_CLK_TCK")
+    spent: dict[str, float] = {}
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            argv = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").split()
+            if not argv or b"chrom" not in argv[0]:
+                continue
+            kind = next((a[7:].decode() for a in argv if a.startswith(b"--type=")), "browser")
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:  # gone meanwhile
+            continue
+        spent[kind] = spent.get(kind, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return spent
+
+
+@dataclass
+class Rate:
+    """Frames per second, and Chromium's CPU milliseconds per frame by process kind."""
+
+    fps: float
+    cpu_ms: dict[str, float]
+
+    def cells(self) -> list[str]:
+        gpu, page = self.cpu_ms.get("gpu-process", 0.0), self.cpu_ms.get("renderer", 0.0)
+        return [f"{self.fps:.1f}", f"{gpu:.0f} / {page:.0f}"]
+
+
+def frames_per_second(page: Page, seconds: float) -> Rate:
     """requestAnimationFrame callbacks per second over ``seconds`` (after the caller's warm-up)."""
+    before = chromium_cpu_s()
     fps: float = page.evaluate(COUNT_FRAMES, seconds * 1000)
-    return fps
+    after = chromium_cpu_s()
+    frames = max(fps * seconds, 1.0)
+    cpu_ms = {kind: 1000 * (after[kind] - before.get(kind, 0.0)) / frames for kind in after}
+    return Rate(fps, cpu_ms)
 
 
-def reference_fps(page: Page, url: str, html: str, seconds: float) -> float:
+def reference_fps(page: Page, url: str, html: str, seconds: float) -> Rate:
     """The frame rate of a reference page (served at the page's origin, outside its CSP)."""
     page.route(
         "**/bench/reference", lambda route: route.fulfill(body=html, content_type="text/html")
@@ -145,7 +185,7 @@ def webgl_renderer(page: Page) -> str:
 
 def page_fps(
     page: Page, url: str, quality: str, seconds: float
-) -> tuple[float, float, dict[str, int]]:
+) -> tuple[Rate, float, dict[str, int]]:
     """The page's frame rate at a pinned level, its plots' redraws/s, what it drew per frame."""
     open_page(page, f"{url}/?quality={quality}")
     page.select_option("#selected-robot", "iiwa7")  # seven joint plots
@@ -167,11 +207,11 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
     """Rows for one browser: each level pinned, auto after adapting, the two references."""
     rows: list[list[str]] = []
     for index, name in enumerate(LEVELS):
-        fps, plots, info = page_fps(page, url, str(index), seconds)
+        rate, plots, info = page_fps(page, url, str(index), seconds)
         rows.append(
             [
                 f"page, level {index} ({name})",
-                f"{fps:.1f}",
+                *rate.cells(),
                 f"{plots:.1f}",
                 f"{info['calls']} / {info['triangles']}",
             ]
@@ -182,13 +222,15 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
     page.wait_for_timeout(AUTO_SETTLE_MS)
     settled = page.evaluate("window.linkview.quality")
     redraws = page.evaluate("window.linkview.plots.redraws")
-    fps = frames_per_second(page, seconds)
+    rate = frames_per_second(page, seconds)
     plots = (page.evaluate("window.linkview.plots.redraws") - redraws) / seconds
     info = page.evaluate("window.linkview.renderInfo")
+    fps, cpu = rate.cells()
     rows.append(
         [
             f"**page, auto** (level {settled['level']} after {AUTO_SETTLE_MS / 1000:g} s)",
-            f"**{fps:.1f}**",
+            f"**{fps}**",
+            cpu,
             f"{plots:.1f}",
             f"{info['calls']} / {info['triangles']}",
         ]
@@ -199,7 +241,7 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
         ("reference: the page's stage, no robots, no DOM", STAGE_PAGE),
         ("reference: bare cube", lowest),
     ):
-        rows.append([label, f"{reference_fps(page, url, html, seconds):.1f}", "", ""])
+        rows.append([label, *reference_fps(page, url, html, seconds).cells(), "", ""])
         print(" | ".join(rows[-1]), flush=True)
     return rows, webgl_renderer(page)
 
@@ -222,7 +264,14 @@ def main() -> None:
             rows, renderer = measure_path(page, url, args.seconds)
             browser.close()
             table = markdown_table(
-                ["what", "frames/s", "plot redraws/s", "draws / triangles"], rows
+                [
+                    "what",
+                    "frames/s",
+                    "CPU ms per frame: GPU process / page",
+                    "plot redraws/s",
+                    "draws / triangles",
+                ],
+                rows,
             )
             sections.append(f"### {path}\n\nWebGL renderer: `{renderer}`.\n\n{table}")
     load_after = load()
