@@ -1,5 +1,6 @@
 import * as THREE from 'three';
 import { SimplifyModifier } from 'three/addons/modifiers/SimplifyModifier.js';
+import { vertexLitMaterial } from './vertex_lit.js';
 import { mergedLinkGeometry } from './merged_links.js';
 import { Trail } from './trail.js';
 
@@ -296,7 +297,7 @@ class RobotView {
 	_mergedMaterial() {
 
 		if ( this.greyed ) return simpleMaterial( GREY );
-		this._vertexColored ??= new THREE.MeshLambertMaterial( { vertexColors: true } );
+		this._vertexColored ??= vertexLitMaterial();
 		return this._vertexColored;
 
 	}
