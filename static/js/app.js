@@ -309,7 +309,7 @@ class App {
 
 		}
 		this.stage.render();
-		this.labels.update( views, this.stage.camera );
+		this.labels.update( views, this.stage );
 
 	}
 

@@ -52,10 +52,9 @@ class Labels {
 
 	}
 
-	update( views, camera ) {
+	/** Move each tag to its robot's anchor as `stage` (scene.js) shows it. */
+	update( views, stage ) {
 
-		const width = this.container.clientWidth;
-		const height = this.container.clientHeight;
 		for ( const [ name, entry ] of this._tags ) {
 
 			const { tag, note } = entry;
@@ -69,14 +68,15 @@ class Labels {
 				continue;
 
 			}
-			_ndc.copy( view.anchor ).project( camera );
+			_ndc.copy( view.anchor ).project( stage.camera );
 			const onScreen = _ndc.z < 1 && Math.abs( _ndc.x ) < 1.1 && Math.abs( _ndc.y ) < 1.1;
 			if ( tag.hidden === onScreen ) tag.hidden = ! onScreen;
 			if ( onScreen ) {
 
 				// Style writes cost layout work every frame: only when the tag moved a pixel.
-				const x = Math.round( ( _ndc.x + 1 ) / 2 * width );
-				const y = Math.round( ( 1 - _ndc.y ) / 2 * height );
+				const at = stage.toContainer( _ndc );
+				const x = Math.round( at.x );
+				const y = Math.round( at.y );
 				if ( x !== entry.x || y !== entry.y ) {
 
 					entry.x = x;

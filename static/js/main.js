@@ -67,8 +67,7 @@ window.linkview = Object.freeze( {
 	/** The world axes' letters and the grid's spacing label: text and place on screen (CSS px). */
 	get orientation() {
 
-		const canvas = app.stage.renderer.domElement;
-		return app.stage.orientation.onScreen( app.stage.camera, canvas.clientWidth, canvas.clientHeight );
+		return app.stage.orientation.onScreen( app.stage );
 
 	},
 	get quality() {

@@ -84,14 +84,15 @@ class OrientationAids {
 
 	}
 
-	/** For tests: each label's text and where it is on screen (CSS px), if in the view. */
-	onScreen( camera, width, height ) {
+	/** For tests: each label's text and where it is in the view's container (CSS px), if in the view. */
+	onScreen( stage ) {
 
 		const at = new THREE.Vector3();
 		return [ ...this.letters, this.gridLabel ].filter( Boolean ).map( ( sprite ) => {
 
-			sprite.getWorldPosition( at ).project( camera );
-			return { text: sprite.name, x: ( at.x + 1 ) / 2 * width, y: ( 1 - at.y ) / 2 * height, inView: Math.abs( at.x ) <= 1 && Math.abs( at.y ) <= 1 && at.z <= 1 };
+			sprite.getWorldPosition( at ).project( stage.camera );
+			const { x, y } = stage.toContainer( at );
+			return { text: sprite.name, x, y, inView: Math.abs( at.x ) <= 1 && Math.abs( at.y ) <= 1 && at.z <= 1 };
 
 		} );
 

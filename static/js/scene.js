@@ -21,6 +21,7 @@ const VIEWS = {
 	side: new THREE.Vector3( 1, 0, 0.02 ).normalize(),
 };
 
+const MIN_FREE_SHARE = 0.3; // of the window's width: narrower, and the canvas spans the window
 const GRID_SIZE_M = 8;
 const GRID_DIVISIONS = 32; // 250 mm cells, written on the floor by OrientationAids
 
@@ -47,7 +48,7 @@ class Stage {
 		this.container = container;
 		this.settings = { ...settings };
 		this._loop = null;
-		this.insets = { left: 0, right: 0 }; // px of the view covered by panels
+		this.insets = { left: 0, right: 0 }; // px of the window covered by panels
 
 		this.scene = new THREE.Scene();
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
@@ -249,23 +250,35 @@ class Stage {
 
 	}
 
-	/** Pixels of the view's left and right covered by panels: framing keeps robots out from under them. */
+	/**
+	 * Pixels of the window's left and right covered by panels. The canvas spans only
+	 * the part they leave free: without a GPU every pixel of the canvas is drawn and
+	 * composited in software each frame, and those under an opaque panel are never seen
+	 * (bench/page_fps.py). Where that part would be too narrow, the canvas spans the window.
+	 */
 	setInsets( left, right ) {
 
 		this.insets = { left, right };
-		this._applyFilmOffset();
+		this.resize();
 
 	}
 
-	// Shift the image so the view's centre is the middle of the part no panel covers.
-	_applyFilmOffset() {
+	/** Where the canvas lies in the container (CSS px): { left, width, height }. */
+	get viewRect() {
 
-		const width = this.container.clientWidth || window.innerWidth;
-		const shiftPx = ( this.insets.left - this.insets.right ) / 2;
-		const camera = this.camera;
-		const widthAtUnit = 2 * Math.tan( THREE.MathUtils.degToRad( camera.fov ) / 2 ) * camera.aspect;
-		camera.filmOffset = - ( shiftPx / width ) * widthAtUnit * camera.getFilmWidth();
-		camera.updateProjectionMatrix();
+		const full = this.container.clientWidth || window.innerWidth;
+		const height = this.container.clientHeight || window.innerHeight;
+		const free = full - this.insets.left - this.insets.right;
+		if ( free < MIN_FREE_SHARE * full ) return { left: 0, width: full, height };
+		return { left: this.insets.left, width: free, height };
+
+	}
+
+	/** Container coordinates (CSS px) of a point projected by the camera (`ndc`: x, y in -1..1). */
+	toContainer( ndc ) {
+
+		const { left, width, height } = this.viewRect;
+		return { x: left + ( ndc.x + 1 ) / 2 * width, y: ( 1 - ndc.y ) / 2 * height };
 
 	}
 
@@ -288,10 +301,8 @@ class Stage {
 		box.getBoundingSphere( _sphere );
 		const radius = Math.max( _sphere.radius, 0.15 );
 		const camera = this.camera;
-		const width = this.container.clientWidth || window.innerWidth;
-		const free = Math.max( 0.3, ( width - this.insets.left - this.insets.right ) / width );
 		const halfV = THREE.MathUtils.degToRad( camera.fov ) / 2;
-		const halfH = Math.atan( Math.tan( halfV ) * camera.aspect * free );
+		const halfH = Math.atan( Math.tan( halfV ) * camera.aspect );
 		const distance = radius / Math.sin( Math.min( halfV, halfH ) ) * 1.05;
 		if ( direction === null ) direction = _offset.copy( camera.position ).sub( this.controls.target ).normalize();
 		else direction = _offset.copy( direction );
@@ -338,11 +349,13 @@ class Stage {
 
 	resize() {
 
-		const width = this.container.clientWidth || window.innerWidth;
-		const height = this.container.clientHeight || window.innerHeight;
+		const { left, width, height } = this.viewRect;
 		this.camera.aspect = width / height;
+		this.camera.updateProjectionMatrix();
 		this.renderer.setSize( width, height, false );
-		this._applyFilmOffset();
+		const style = this.renderer.domElement.style;
+		style.left = `${left}px`;
+		style.width = `${width}px`;
 
 	}
 
