@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .._rotations import snap_unit
+from .._trig import CosSin
 
 Array = npt.NDArray[np.float64]
 
@@ -233,8 +234,8 @@ def large_batch(k: ChainConstants, q: Array, flange_only: bool = False) -> Array
       turn by the joint angle updates two columns at once on pair views,
       ``[x, y] [c, c] + [y, x] [s, -s]``, and with a quarter turn about x
       (most arms) that turn's sign and swap are folded into the coefficients.
-    * Cos and sin come from the half-angle tangent, per block (in cache):
-      NumPy vectorises ``tan`` but not ``sin``/``cos`` for float64.
+    * Cos and sin come from ``CosSin``, per block (in cache): a third faster
+      than libm, whose calls NumPy makes one element at a time.
     * The last block overlaps the one before instead of being shorter, so
       every block has the same width and the views are made once.
     """
@@ -256,25 +257,18 @@ def large_batch(k: ChainConstants, q: Array, flange_only: bool = False) -> Array
     kc = np.array([-sa if sa else 1.0 for sa in sa_fold])[:, None]
     ks = np.array([sa if sa else -1.0 for sa in sa_fold])[:, None]
     y_and_p = [np.array([[sa], [d]]) for sa, d in zip(k.sin_alpha, k.d, strict=True)]
-    half_offset = 0.5 * k.theta_offset_array[:, None]
-    offset = bool(half_offset.any())
-    t, t2 = np.empty((2, n, b))
+    offset = bool(k.theta_offset_array.any())
+    t = np.empty((n, b))
+    cos_sin = CosSin((n, b))
     cos, sin = np.empty((2, 2, n, b))  # [c, kc c] and [s, ks s] of every joint
     tmp = np.empty((3, 2, b))
     tm = tmp[:, 0]
     out = np.empty((m, 16) if flange_only else (m, n + 1, 16))
     for start in (*range(0, m - b, b), m - b):
-        np.multiply(q[start : start + b].T, 0.5, out=t)
+        theta = q[start : start + b].T
         if offset:
-            t += half_offset
-        np.tan(t, out=t)
-        np.multiply(t, t, out=t2)
-        np.subtract(1.0, t2, out=cos[0])
-        t2 += 1.0
-        np.divide(1.0, t2, out=t2)
-        cos[0] *= t2
-        np.multiply(t, t2, out=sin[0])
-        sin[0] *= 2.0
+            theta = np.add(theta, k.theta_offset_array[:, None], out=t)
+        cos_sin(theta, cos[0], sin[0])
         np.multiply(cos[0], kc, out=cos[1])
         np.multiply(sin[0], ks, out=sin[1])
         for i in range(n):
