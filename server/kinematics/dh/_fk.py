@@ -229,13 +229,13 @@ def large_batch(k: ChainConstants, q: Array, flange_only: bool = False) -> Array
       ``soa[frame, 4 * row + col, sample]``, all 16 entries with the constant
       ones preset, so each update is a pass over data in cache and the result
       is written once, by one transposing copy per block.
-    * A NumPy call on these strided views costs a few microseconds of its own,
-      as much as its arithmetic, so a joint is as few calls as possible: the
+    * A NumPy call on these strided views costs about 2 us of its own plus
+      its passes over memory, so a joint is as few calls as possible: the
       turn by the joint angle updates two columns at once on pair views,
       ``[x, y] [c, c] + [y, x] [s, -s]``, and with a quarter turn about x
       (most arms) that turn's sign and swap are folded into the coefficients.
-    * Cos and sin come from ``CosSin``, per block (in cache): a third faster
-      than libm, whose calls NumPy makes one element at a time.
+    * Cos and sin come from ``CosSin``, per block (in cache): about twice as
+      fast as any libm call, which NumPy makes one element at a time here.
     * The last block overlaps the one before instead of being shorter, so
       every block has the same width and the views are made once.
     """
