@@ -40,8 +40,11 @@ IK_TARGETS = 200
 
 # Why a floor can be missed, printed only when it is.
 WHY = {
-    "fk_batch": "the result is 8 frames x 128 B = 102 MB per call against the flange's 12.8 MB, "
-    "so page faults and memory traffic weigh more than the maths",
+    "fk_batch": "about half the time is writing the result, 8 frames x 128 B = 102 MB against "
+    "roboticstoolbox's 12.8 MB: the kernel zeroes every fresh 2 MB page, then one transposing "
+    "copy per block of 4096; with other jobs on the host this memory-bound half slows more than "
+    "roboticstoolbox's in-cache C loop, so the ratio moves with the load (1.6-2.9 x here within "
+    "an hour, the previous kernel 1.5-2.1 x)",
     "fk_one": "one Python float expression per matrix entry and joint, plus building the array; "
     "the figure moves with the load on these shared cores",
     "type12": "a third of the time is four libm sin/cos per configuration (NumPy does not "

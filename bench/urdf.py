@@ -64,8 +64,10 @@ ROBOTS = [
 
 # Why a floor can be missed, printed only when it is.
 WHY = {
-    "fk_batch": "8 frames x 128 B = 102 MB of result per call against roboticstoolbox's 12.8 MB: "
-    "page faults and memory traffic weigh more than the maths",
+    "fk_batch": "about half the time is writing the result, 8 frames x 128 B = 102 MB against "
+    "roboticstoolbox's 12.8 MB (fresh pages the kernel zeroes, then a transposing copy); with "
+    "other jobs on the host this memory-bound half slows more than roboticstoolbox's in-cache "
+    "C loop, so the ratio moves with the load",
     "fk_one": "one Python float expression per matrix entry and joint, plus building the array; "
     "the figure moves with the load on these shared cores",
     "cold": "trimesh loading, edge splitting and GLB export of every visual",
@@ -107,6 +109,7 @@ def cpu_and_wall(call: Callable[[], object]) -> tuple[float, float]:
 
 def corpus_row(robot: Described, folder: Path, repeats: int) -> dict[str, float]:
     """Median cold and cached load of one corpus robot (CPU and wall seconds), its size."""
+
     def load(cache: Path) -> None:
         link_meshes(load_urdf(robot.path, robot.package_folders, args=robot.args), cache)
 

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _numeric_ik
-from .._batch import all_along_last
+from .._batch import all_along_last, finite_rows
 from . import _fk
 
 Array = npt.NDArray[np.float64]
@@ -111,9 +111,7 @@ class DHChain:
             if not ok:
                 joints = [x if math.isfinite(x) else 0.0 for x in joints]
             return _fk.one_config(self._k, joints), np.array(ok)
-        ok_rows = all_along_last(np.isfinite(arr))
-        if not ok_rows.all():
-            arr = np.where(np.isfinite(arr), arr, 0.0)
+        arr, ok_rows = finite_rows(arr)
         lead = arr.shape[:-1]
         flat = arr.reshape(-1, self.n_joints)
         poses = self._frames(flat).reshape(lead + (self.n_joints + 1, 4, 4))
@@ -126,9 +124,7 @@ class DHChain:
         """
         arr = self._joints(q)
         if arr.ndim > 1 and arr.size >= _LARGE_BATCH * self.n_joints:
-            ok_rows = all_along_last(np.isfinite(arr))
-            if not ok_rows.all():
-                arr = np.where(np.isfinite(arr), arr, 0.0)
+            arr, ok_rows = finite_rows(arr)
             flange = _fk.large_batch(self._k, arr.reshape(-1, self.n_joints), flange_only=True)
             return flange.reshape(arr.shape[:-1] + (4, 4)), ok_rows
         poses, ok = self.link_poses(arr)

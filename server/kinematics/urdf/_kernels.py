@@ -24,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
+from .._trig import CosSin
 from ._program import Buf, Lin, Out, Program, Slide, Turn, Vec
 from ._tree import Tree
 
@@ -45,13 +46,14 @@ class BatchKernel:
         # Where a row's values land: index into the cos/sin rows or into the slide rows.
         self._row_at = {r: k for k, r in enumerate(self._turn_rows)}
         self._row_at.update({r: k for k, r in enumerate(self._slide_rows)})
-        # Half angles for the tangent formula below, hence the 0.5.
         self._turn_src = np.array([rows[r].source for r in self._turn_rows], dtype=np.intp)
-        self._turn_mul = np.array([0.5 * rows[r].multiplier for r in self._turn_rows])[:, None]
-        self._turn_off = np.array([0.5 * rows[r].offset for r in self._turn_rows])[:, None]
+        self._turn_mul = np.array([rows[r].multiplier for r in self._turn_rows])[:, None]
+        self._turn_off = np.array([rows[r].offset for r in self._turn_rows])[:, None]
         self._slide_src = np.array([rows[r].source for r in self._slide_rows], dtype=np.intp)
         self._slide_mul = np.array([rows[r].multiplier for r in self._slide_rows])[:, None]
         self._slide_off = np.array([rows[r].offset for r in self._slide_rows])[:, None]
+        self._turn_pick, self._slide_pick = _pick(self._turn_src), _pick(self._slide_src)
+        self._turn_offset = bool(self._turn_off.any())
         self._consts: dict[Vec, Array] = {}
         # A buffer written out unchanged lives in its first output column: no copy.
         home: dict[int, tuple[int, int]] = {}
@@ -75,60 +77,51 @@ class BatchKernel:
             found = self._consts[vec] = np.array(vec).reshape(3, 1)
         return found
 
-    def _rows(self, q: Array, rows: Array) -> None:
-        """Per sample of ``q`` ``(w, n)``: cos and sin of every turn, every slide's value.
+    def _rows(self, q: Array, rows: Array, cos_sin: CosSin) -> None:
+        """Per sample of ``q`` ``(b, n)``: cos and sin of every turn, every slide's value.
 
-        ``rows`` is ``(5, max(turns, slides), w)``: cos, sin, slide value, and
-        two scratch rows. Cos and sin come from the half-angle tangent: NumPy
-        vectorises ``tan`` but not ``sin``/``cos`` for float64.
+        ``rows`` is ``(4, max(turns, slides), b)``: cos, sin, slide value, and
+        the turns' angles.
         """
         k = self._turn_src.size
-        cos, sin, t, t2 = rows[0, :k], rows[1, :k], rows[3, :k], rows[4, :k]
-        slide = rows[2]
-        np.take(q.T, self._turn_src, axis=0, out=t)
-        t *= self._turn_mul
-        t += self._turn_off
-        np.tan(t, out=t)
-        np.multiply(t, t, out=t2)
-        np.subtract(1.0, t2, out=cos)
-        t2 += 1.0
-        np.reciprocal(t2, out=t2)
-        cos *= t2
-        np.multiply(t, t2, out=sin)
-        sin *= 2.0
+        cos, sin, slide, angle = rows[0, :k], rows[1, :k], rows[2], rows[3, :k]
+        np.multiply(_joint_rows(q, self._turn_pick), self._turn_mul, out=angle)
+        if self._turn_offset:
+            angle += self._turn_off
+        cos_sin(angle, cos, sin)
         if self._slide_src.size:
             value = slide[: self._slide_src.size]
-            np.take(q.T, self._slide_src, axis=0, out=value)
-            value *= self._slide_mul
+            np.multiply(_joint_rows(q, self._slide_pick), self._slide_mul, out=value)
             value += self._slide_off
 
     def __call__(self, q: Array) -> Array:
         prog = self.prog
         m = q.shape[0]
         out = np.empty((m, prog.n_frames, 16))
-        block = min(m, BLOCK)
-        store = np.empty((prog.n_slots + 1, 3, block + _PAD))  # the last slot is scratch
-        rows = np.empty((5, max(self._turn_src.size, self._slide_src.size), block + _PAD))
+        # Every block is ``b`` wide, the last one overlapping the one before,
+        # so the views below are made once.
+        b = min(m, BLOCK)
+        store = np.empty((prog.n_slots + 1, 3, b + _PAD))[:, :, :b]  # the last slot is scratch
+        rows = np.empty((4, max(self._turn_src.size, self._slide_src.size), b))
+        cos_sin = CosSin((self._turn_src.size, b))
         # Frames are put together column by column in cache, as rows of
         # ``soa[frame, 4 * row + col, sample]``, then transposed into the result
         # one block at a time. The padding keeps the rows off the same cache
         # sets; without it that transpose runs 3x slower.
-        soa = np.empty((prog.n_frames, 16, block + _PAD))[:, :, :block]
+        soa = np.empty((prog.n_frames, 16, b + _PAD))[:, :, :b]
         soa[:, 12:] = _BOTTOM[:, None]
         for const in self._const_outs:
             soa[const.frame, const.col : 12 : 4] = np.asarray(const.src)[:, None]
-        for start in range(0, m, block):
-            stop = min(start + block, m)
-            w = stop - start
-            bufs = [
-                soa[self._home[i][0], self._home[i][1] : 12 : 4, :w]
-                if i in self._home
-                else store[prog.slots[i], :, :w]
-                for i in range(prog.n_buffers)
-            ]
-            self._rows(q[start:stop], rows[:, :, :w])
-            self._block(bufs, store[-1, :, :w], rows[:3, :, :w], soa[:, :, :w])
-            np.copyto(out[start:stop], soa[:, :, :w].transpose(2, 0, 1))
+        bufs = [
+            soa[self._home[i][0], self._home[i][1] : 12 : 4]
+            if i in self._home
+            else store[prog.slots[i]]
+            for i in range(prog.n_buffers)
+        ]
+        for start in (*range(0, m - b, b), m - b):
+            self._rows(q[start : start + b], rows, cos_sin)
+            self._block(bufs, store[-1], rows[:3], soa)
+            np.copyto(out[start : start + b], soa.transpose(2, 0, 1))
         return out.reshape(m, prog.n_frames, 4, 4)
 
     def _block(self, bufs: list[Array], tmp: Array, rows: Array, soa: Array) -> None:
@@ -166,6 +159,18 @@ class BatchKernel:
 
     def _operand(self, bufs: list[Array], x: int | Vec) -> Array:
         return bufs[x] if isinstance(x, int) else self._const(x)
+
+
+def _pick(columns: npt.NDArray[np.intp]) -> slice | npt.NDArray[np.intp]:
+    """``columns`` as a slice where they are consecutive (the usual case): a view, no gather."""
+    if columns.size and np.array_equal(columns, np.arange(columns[0], columns[0] + columns.size)):
+        return slice(int(columns[0]), int(columns[0]) + columns.size)
+    return columns
+
+
+def _joint_rows(q: Array, pick: slice | npt.NDArray[np.intp]) -> Array:
+    """Columns ``pick`` of ``q`` ``(b, n)`` as rows ``(k, b)``."""
+    return q.T[pick] if isinstance(pick, slice) else q[:, pick].T
 
 
 def _lin(dst: Array, terms: list[tuple[float, Array]], tmp: Array) -> None:

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import _numeric_ik
-from .._batch import all_along_last
+from .._batch import finite_rows
 from . import _tree
 from ._kernels import BatchKernel, ScalarKernel, SmallBatchKernel
 from ._program import compile_frames
@@ -120,9 +120,7 @@ class UrdfChain:
             if not ok:
                 joints = [x if math.isfinite(x) else 0.0 for x in joints]
             return kernels.one(joints), np.array(ok)
-        ok_rows = all_along_last(np.isfinite(arr))
-        if not ok_rows.all():
-            arr = np.where(np.isfinite(arr), arr, 0.0)
+        arr, ok_rows = finite_rows(arr)
         lead = arr.shape[:-1]
         frames = kernels.batch(arr.reshape(math.prod(lead), self.n_joints))
         return frames.reshape(lead + frames.shape[1:]), ok_rows
