@@ -15,8 +15,9 @@ browser, at 1280x800 with the demo cell and TCP trails on:
 Frames are ``requestAnimationFrame`` callbacks counted after a warm-up; every
 callback of the page renders. Beside each rate: Chromium's CPU time per frame
 in its GPU process (SwiftShader's rasterising and compositing, by default) and
-in the page's renderer process, read from /proc, which says where the time goes. Frame rates depend on what else the machine does:
-the load average is printed with the table. Usage: ``python bench/page_fps.py
+in the page's renderer process, read from /proc, which says where the time
+goes. Frame rates depend on what else the machine does: the load average is
+printed with the table. Usage: ``python bench/page_fps.py
 [--seconds 5]``; writes docs/benchmarks.md.
 """
 
