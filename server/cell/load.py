@@ -138,6 +138,9 @@ class _Builder:
         self.valid = validated
         self.env = env
         self.problems: list[tuple[str, str]] = list(validated.problems)
+        self._built: dict[str, Built] = {}
+        """Kinematics by table: robots described alike share one (one batch per model, one
+        load of each URDF; the families are immutable once built)."""
 
     def cell(self) -> Cell:
         names = self.valid.names
@@ -234,7 +237,10 @@ class _Builder:
     def _robot(self, index: int, spec: schema.Robot) -> Robot | None:
         key = self._key("robot", index)
         try:
-            built = build(spec.kinematics, self.where)
+            table = spec.kinematics.model_dump_json()
+            built = self._built.get(table) or self._built.setdefault(
+                table, build(spec.kinematics, self.where)
+            )
         except SpecError as exc:
             self._report((f"{key}.kinematics.{exc.key}", str(exc)))
             return None

@@ -19,9 +19,10 @@ import numpy as np
 from ..cell import Robot
 from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
 from .buckets import Buckets
-from .frames import RobotFrame, compute_frame, encode_binary, encode_json
+from .frames import encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
+from .turns import Job, Outcome, Pending, turn_batch
 from .types import Array, NoTap, RobotSample, SampleStream, SampleTap
 
 log = logging.getLogger(__name__)
@@ -147,42 +148,52 @@ class Acquisition:
             self.publish_status()
         if self._settings.sample_cost_s:
             _burn(self._settings.sample_cost_s)
-        start = time.perf_counter()
-        frames = [(index, self._frame(robot, sample)) for index, robot in self._robots]
-        self.kinematics_time.observe(time.perf_counter() - start)
+        seq, robots = self._seq, self._robots
+        jobs = [(robot, self._robot_sample(robot, sample, seq)) for _, robot in robots]
+
+        def done(outcomes: list[Outcome], compute_s: float) -> None:
+            self.kinematics_time.observe(compute_s)
+            self._publish(seq, sample, robots, jobs, outcomes)
+
+        # Computed with the samples of other sources read in this turn of the loop.
+        turn_batch().add(Pending(jobs, done))
+
+    def _robot_sample(self, robot: Robot, sample: Sample, seq: int) -> RobotSample:
+        read = [sample.values[n] for n in robot.nodes]
+        errors = [str(v) for v in read if isinstance(v, Exception)]
+        return RobotSample(
+            seq=seq,
+            t_source=sample.t_source,
+            values=None if errors else np.array(read, dtype=np.float64),
+            error="; ".join(errors) if errors else None,
+            setpoints=self._setpoints(robot, sample),
+        )
+
+    def _publish(
+        self,
+        seq: int,
+        sample: Sample,
+        robots: list[tuple[int, Robot]],
+        jobs: list[Job],
+        outcomes: list[Outcome],
+    ) -> None:
+        """Encode one sample's frames once per protocol and hand them to the hub."""
+        frames = []
+        for (index, robot), (_, read), (frame, bug) in zip(robots, jobs, outcomes, strict=True):
+            frames.append((index, frame))
+            if self.health.mark_robot(robot.name, frame.ok, frame.error, read.values):
+                if frame.ok:  # a change: logged once, not per sample
+                    log.info("robot %s: streaming", robot.name)
+                else:
+                    log.warning("robot %s: %s", robot.name, frame.error, exc_info=bug)
         t_sent = time.time()
-        binary = encode_binary(frames, self._seq, sample.t_source, t_sent)
+        binary = encode_binary(frames, seq, sample.t_source, t_sent)
         name = self.health.name
         self._hub.publish(f"frames2:{name}", Message(binary, sample.t_source), protocol=2)
         if self._hub.wants(1):  # protocol 1 costs a JSON encoding per robot: only when watched
             # One frame message per robot, but sent together: one write per viewer and sample.
             texts = tuple(encode_json(frame, t_sent) for _, frame in frames)
             self._hub.publish(f"frames1:{name}", Message(texts, sample.t_source), protocol=1)
-
-    def _frame(self, robot: Robot, sample: Sample) -> RobotFrame:
-        read = [sample.values[n] for n in robot.nodes]
-        errors = [str(v) for v in read if isinstance(v, Exception)]
-        values = None if errors else np.array(read, dtype=np.float64)
-        robot_sample = RobotSample(
-            seq=self._seq,
-            t_source=sample.t_source,
-            values=values,
-            error="; ".join(errors) if errors else None,
-            setpoints=self._setpoints(robot, sample),
-        )
-        bug: Exception | None = None
-        try:
-            frame = compute_frame(robot, robot_sample)
-        except Exception as exc:  # one robot's bug must not stop the others
-            bug = exc
-            failed = RobotSample(robot_sample.seq, robot_sample.t_source, None, repr(exc))
-            frame = compute_frame(robot, failed)
-        if self.health.mark_robot(robot.name, frame.ok, frame.error, values):  # changes only
-            if frame.ok:
-                log.info("robot %s: streaming", robot.name)
-            else:
-                log.warning("robot %s: %s", robot.name, frame.error, exc_info=bug)
-        return frame
 
     @staticmethod
     def _setpoints(robot: Robot, sample: Sample) -> Array | None:

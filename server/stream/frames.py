@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,12 +11,13 @@ import orjson
 from ..cell import Robot
 from ..kinematics import pose7_from_matrix
 from ..protocol import FLAG_OK, FLAG_SETPOINT, FRAMES_HEADER, FRAMES_KIND, ROBOT_HEADER
-from .types import Array, RobotSample
+from .types import Array, BoolArray, RobotSample
 
 # orjson rather than json: it serialises numpy arrays directly and is ~10x
 # faster, and this runs 50-100 times a second per robot.
 _OPTS = orjson.OPT_SERIALIZE_NUMPY
 _NO_FLOATS = np.zeros(0)
+_NO_LINKS = _NO_FLOATS.reshape(0, 7)
 _NO_TCP = np.zeros(7)
 MAX_ERROR_BYTES = 1024
 """Error texts are cut to this many bytes on the wire (protocol 2's field is 16 bits)."""
@@ -57,38 +59,77 @@ class RobotFrame:
 
 def compute_frame(robot: Robot, sample: RobotSample) -> RobotFrame:
     """Poses of every link and the TCP for ``sample`` (and for its setpoints, if it has them)."""
-    error = sample.error
-    q: Array | None = None
-    links: Array = _NO_FLOATS.reshape(0, 7)
-    tcp: Array = _NO_FLOATS
-    setpoint: SetpointFrame | None = None
-    if error is None and sample.values is not None:
-        q = robot.to_si(sample.values)
-        if sample.setpoints is None:
-            link_poses, tcp_pose, reached = robot.poses(q)
-            ok = bool(reached)
-            if ok:
-                links = pose7_from_matrix(link_poses)
-                tcp = links[-1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
+    return compute_frames([(robot, sample)])[0]
+
+
+def compute_frames(jobs: Sequence[tuple[Robot, RobotSample]]) -> list[RobotFrame]:
+    """``compute_frame`` of many robots: one kinematics call per kinematic model, not per robot.
+
+    Robots that share a model (the cell loader gives identical kinematics tables
+    one instance) go through it in one batch, their setpoints included. A single
+    robot's sample pays numpy's cost per call more than the arithmetic: batched,
+    the arms of a plant cost a fraction each (bench/sample_path.py).
+    """
+    frames: list[RobotFrame | None] = [None] * len(jobs)
+    models: dict[tuple[int, bool], list[tuple[int, Array]]] = {}
+    for i, (robot, sample) in enumerate(jobs):
+        if sample.error is None and sample.values is not None:
+            model = (id(robot.kinematics), robot.tcp_is_last_link)
+            models.setdefault(model, []).append((i, sample.values))
         else:
-            links, tcp, ok, setpoint = _with_setpoint(robot, q, robot.to_si(sample.setpoints))
-        if not ok:
-            error = f"unreachable posture: joints {np.round(sample.values, 3).tolist()}"
-    return RobotFrame(robot, sample.seq, sample.t_source, q, links, tcp, error, setpoint)
+            frames[i] = RobotFrame(
+                robot, sample.seq, sample.t_source, None, _NO_LINKS, _NO_FLOATS, sample.error
+            )
+    for members in models.values():
+        computed = _same_model([(*jobs[i], values) for i, values in members])
+        for (i, _), frame in zip(members, computed, strict=True):
+            frames[i] = frame
+    return frames  # type: ignore[return-value]  # every slot is filled above
 
 
-def _with_setpoint(
-    robot: Robot, q: Array, q_set: Array
-) -> tuple[Array, Array, bool, SetpointFrame | None]:
-    """Actual links, TCP and ok, and the setpoint's frame (None if unreachable) in one batch."""
-    both = np.stack([q, q_set])  # one call into the kinematics, not two
-    link_poses, tcp_pose, ok = robot.poses(both)
-    if not bool(ok[0]):
-        return _NO_FLOATS.reshape(0, 7), _NO_FLOATS, False, None
-    links = pose7_from_matrix(link_poses)
-    tcp = links[:, -1] if robot.tcp_is_last_link else pose7_from_matrix(tcp_pose)
-    setpoint = SetpointFrame(q_set, links[1], tcp[1]) if bool(ok[1]) else None
-    return links[0], tcp[0], True, setpoint
+def _same_model(jobs: list[tuple[Robot, RobotSample, Array]]) -> list[RobotFrame]:
+    """Frames of robots sharing one kinematics, every sample read: actual rows, then setpoints."""
+    rows = [robot.to_si(values) for robot, _, values in jobs]
+    ghosts = [(k, s.setpoints) for k, (_, s, _) in enumerate(jobs) if s.setpoints is not None]
+    rows += [jobs[k][0].to_si(setpoints) for k, setpoints in ghosts]
+    model = jobs[0][0]
+    if len(rows) == 1:  # an idle process's turn: the families' faster path for one configuration
+        one = model.poses(rows[0])
+        link_poses, tcp_poses, reached = one[0][None], one[1][None], np.asarray(one[2])[None]
+    else:
+        link_poses, tcp_poses, reached = model.poses(np.stack(rows))
+    links, tcp = _pose7_where(link_poses, tcp_poses, reached, model.tcp_is_last_link)
+    setpoint_row = {k: len(jobs) + n for n, (k, _) in enumerate(ghosts)}
+    frames = []
+    for k, (robot, sample, values) in enumerate(jobs):
+        q = rows[k]
+        if not reached[k]:
+            error = f"unreachable posture: joints {np.round(values, 3).tolist()}"
+            frames.append(
+                RobotFrame(robot, sample.seq, sample.t_source, q, _NO_LINKS, _NO_FLOATS, error)
+            )
+            continue
+        setpoint = None
+        if (row := setpoint_row.get(k)) is not None and reached[row]:
+            setpoint = SetpointFrame(rows[row], links[row], tcp[row])
+        frames.append(
+            RobotFrame(robot, sample.seq, sample.t_source, q, links[k], tcp[k], None, setpoint)
+        )
+    return frames
+
+
+def _pose7_where(
+    link_poses: Array, tcp_poses: Array, reached: BoolArray, tcp_is_last_link: bool
+) -> tuple[Array, Array]:
+    """Wire poses ``(m, n_links, 7)`` and ``(m, 7)``; rows not ``reached`` are left zero."""
+    if reached.all():  # the usual case: every row in one conversion, no selection
+        links = pose7_from_matrix(link_poses)
+        return links, links[:, -1] if tcp_is_last_link else pose7_from_matrix(tcp_poses)
+    links = np.zeros(link_poses.shape[:-2] + (7,))
+    tcp = np.zeros((len(reached), 7))
+    links[reached] = pose7_from_matrix(link_poses[reached])
+    tcp[reached] = links[reached, -1] if tcp_is_last_link else pose7_from_matrix(tcp_poses[reached])
+    return links, tcp
 
 
 def encode_json(frame: RobotFrame, t_sent: float) -> str:

@@ -12,6 +12,7 @@ import numpy.typing as npt
 from ..ctrlx import Sample
 
 Array = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 SampleStream = Callable[[], AsyncGenerator[Sample, None]]
 """Where a source's samples come from when it is no data layer (a replayed recording)."""
 
