@@ -194,6 +194,8 @@ class Acquisition:
             # One frame message per robot, but sent together: one write per viewer and sample.
             texts = tuple(encode_json(frame, t_sent) for _, frame in frames)
             self._hub.publish(f"frames1:{name}", Message(texts, sample.t_source), protocol=1)
+        else:  # the last one made is old by now: a protocol-1 viewer joining must not get it
+            self._hub.discard(f"frames1:{name}")
 
     @staticmethod
     def _setpoints(robot: Robot, sample: Sample) -> Array | None:

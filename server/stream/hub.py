@@ -106,6 +106,10 @@ class Hub:
             if protocol is None or viewer.protocol == protocol:
                 viewer.offer(key, message)
 
+    def discard(self, key: str) -> None:
+        """Forget the newest message of ``key``: it went stale and must not greet a new viewer."""
+        self._latest.pop(key, None)
+
     def restart(self) -> None:
         """Forget every message, kept and pending: what follows describes a new cell."""
         self._latest.clear()

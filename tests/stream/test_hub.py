@@ -58,3 +58,12 @@ async def test_closing_a_viewer_wakes_its_waiting_take() -> None:
     await asyncio.sleep(0.01)
     viewer.close()
     assert await asyncio.wait_for(waiter, 1) == []
+
+
+async def test_a_discarded_message_greets_no_new_viewer() -> None:
+    hub = Hub()
+    hub.publish("frames1:ctrlx", "old frame", protocol=1)
+    hub.publish("status:ctrlx", "s1")
+    hub.discard("frames1:ctrlx")  # nobody spoke protocol 1 while newer samples came
+    viewer = hub.join(protocol=1)
+    assert await viewer.take() == ["s1"]
