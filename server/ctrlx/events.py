@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import re
 import secrets
 from dataclasses import dataclass
 from typing import Any
@@ -99,11 +100,34 @@ class SseParser:
             raise self._too_long()
         if end < 0:
             return
+        text = data[:end].decode("utf-8", "replace")
+        pos = 0 if self._data or self._event else self._usual_events(text, events)
+        if pos and pos == len(text):
+            return  # all of it read (an empty text is still a blank line)
         line = self._line
-        for text in data[:end].decode("utf-8", "replace").split("\n"):
-            if len(text) > self.max_line:
+        for text_line in text[pos:].split("\n"):
+            if len(text_line) > self.max_line:
                 raise self._too_long()
-            line(text, events)
+            line(text_line, events)
+
+    def _usual_events(self, text: str, events: list[SseEvent]) -> int:
+        """Whole events laid out as data layers send them, one regex match each; where they end.
+
+        ``event``, maybe ``id``, one ``data`` line, a blank line: the same events the
+        line-by-line rules make, at a quarter of their cost (four lines per event,
+        seven events per sample of a 7-axis arm). The rest, from the first event
+        laid out otherwise, is left to those rules.
+        """
+        pos, match = 0, _USUAL_EVENT.match
+        while (found := match(text, pos)) is not None:
+            kind, event_id, data = found.groups()
+            if len(data) > self.max_line or len(data) >= self.max_event:
+                break  # the line rules raise
+            if event_id is not None:
+                self._id = event_id.strip()
+            events.append(SseEvent(kind.strip() or "message", self._id, data))
+            pos = found.end()
+        return pos
 
     def _feed_any_line_ends(self, data: bytes, events: list[SseEvent]) -> None:
         """CRLF, LF or CR line ends (the WHATWG rules), one line at a time."""
@@ -146,6 +170,11 @@ class SseParser:
             self._data.append(value)
         elif name == "id":
             self._id = value.strip()
+
+
+_USUAL_EVENT = re.compile(r"event: ?([^\n]*)\n(?:id: ?([^\n]*)\n)?data: ?([^\n]*)\n(?:\n|\Z)")
+"""One event as data layers lay it out, in the text before a chunk's last LF: there, a
+final LF is followed by the blank line's (the LF cut off), so it ends the event too."""
 
 
 def _line_end(data: bytes, pos: int) -> tuple[int, int] | None:

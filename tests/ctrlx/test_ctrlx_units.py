@@ -53,6 +53,36 @@ def test_sse_parser_gives_the_same_events_however_the_bytes_are_split(cuts: list
     assert not parser.pending
 
 
+def usual_event(kind: str, event_id: int | None, data: str) -> bytes:
+    """An event laid out as data layers send it (event, maybe id, one data line)."""
+    id_line = "" if event_id is None else f"id: {event_id}\n"
+    return f"event: {kind}\n{id_line}data: {data}\n\n".encode()
+
+
+ONE_LINE = st.text(st.characters(blacklist_characters="\r\n", blacklist_categories=["Cs"]))
+USUAL = st.builds(
+    usual_event,
+    st.sampled_from(["update", "keepalive", "error", ""]),
+    st.none() | st.integers(0, 10**6),
+    ONE_LINE,
+)
+OTHERWISE = st.sampled_from(
+    [b": comment\n", b"data: a\ndata: b\n\n", b"id: 9\nevent: late\ndata: x\n\n", b"\n"]
+)
+
+
+@given(st.lists(USUAL | OTHERWISE, max_size=10), st.lists(st.integers(0, 4000), max_size=4))
+def test_usual_events_read_as_the_line_rules_read_them(parts: list[bytes], cuts: list[int]) -> None:
+    stream = b"".join(parts)
+    # With CRLF line ends every line goes through the WHATWG rules one by one.
+    reference = SseParser().feed(stream.replace(b"\n", b"\r\n"))
+    parser, events, last = SseParser(), [], 0
+    for cut in [*sorted(min(c, len(stream)) for c in cuts), len(stream)]:
+        events += parser.feed(stream[last:cut])
+        last = cut
+    assert events == reference
+
+
 def test_filetime_epochs() -> None:
     assert unix_from_filetime(116_444_736_000_000_000) == 0.0
     # The data-layer description's own event example, 132778212343571969, is in 2021.
