@@ -238,9 +238,9 @@ class _Builder:
         key = self._key("robot", index)
         try:
             table = spec.kinematics.model_dump_json()
-            built = self._built.get(table) or self._built.setdefault(
-                table, build(spec.kinematics, self.where)
-            )
+            if table not in self._built:
+                self._built[table] = build(spec.kinematics, self.where)
+            built = self._built[table]
         except SpecError as exc:
             self._report((f"{key}.kinematics.{exc.key}", str(exc)))
             return None
