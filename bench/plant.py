@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 import urllib.request
+from collections import defaultdict
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
@@ -58,6 +59,7 @@ COLUMNS = {
     "sample→receipt p50 ms": "{p50_ms:.0f}",
     "p99 ms": "{p99_ms:.0f}",
     "loop lag (newest) ms": "{lag_ms:.0f}",
+    "samples per batch": "{per_batch:.1f}",
     "sources connected / stale / error": "{connected} / {stale} / {error}",
     "mocks CPU": "{mocks_cpu:.0%}",
 }
@@ -70,12 +72,19 @@ def pin(pid: int, cpu: int) -> None:
             os.sched_setaffinity(int(task), {cpu})
 
 
-def loop_lag_ms(port: int) -> float:
-    """The event loop's newest lateness from /metrics (ms); NaN where it is not exported."""
+def metrics(port: int) -> dict[str, float]:
+    """The server's /metrics, unlabelled samples by name (NaN where one is not exported)."""
     with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=10) as resp:
         text = resp.read().decode()
-    found = re.search(r"^linkview_event_loop_lag_newest_seconds (\S+)$", text, re.M)
-    return float(found.group(1)) * 1e3 if found else float("nan")
+    found = re.findall(r"^([a-z_]+) (\S+)$", text, re.M)
+    return defaultdict(lambda: float("nan"), {name: float(value) for name, value in found})
+
+
+def per_batch(before: dict[str, float], after: dict[str, float]) -> float:
+    """Samples made into frames per batch (one per loop turn) over the window."""
+    turns = after["linkview_sample_batches_total"] - before["linkview_sample_batches_total"]
+    done = after["linkview_samples_computed_total"] - before["linkview_samples_computed_total"]
+    return done / turns if turns > 0 else float("nan")
 
 
 def start_server(stack: ExitStack, cell: Path, port: int, log: Path) -> subprocess.Popen[bytes]:
@@ -146,9 +155,10 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         time.sleep(max(0.0, begin - time.time()))
         pids = [server.pid, *farms]
         cpu0, made0, body0 = [cpu_seconds(p) for p in pids], made(port), health(port)
+        metrics0 = metrics(port)
         time.sleep(max(0.0, begin + seconds - time.time()))
         cpu = [cpu_seconds(p) - c for p, c in zip(pids, cpu0, strict=True)]
-        made1, body1, lag = made(port), health(port), loop_lag_ms(port)
+        made1, body1, metrics1 = made(port), health(port), metrics(port)
         summary = json.loads(viewer.communicate(timeout=60)[0].splitlines()[-1])
         delays = np.fromfile(out) if out.exists() else np.zeros(0)
     fps = [n / seconds for n in summary["viewers"][0]["frames"].values()]
@@ -171,7 +181,8 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         "sent_hz": sent_hz(body0, body1, elapsed, robots),
         "p50_ms": p50,
         "p99_ms": p99,
-        "lag_ms": lag,
+        "lag_ms": 1e3 * metrics1["linkview_event_loop_lag_newest_seconds"],
+        "per_batch": per_batch(metrics0, metrics1),
         "connected": states.count("connected"),
         "stale": states.count("stale"),
         "error": states.count("error"),
@@ -227,7 +238,8 @@ def main() -> None:
         "the server made into frames (/api/health); sent: samples per robot the controllers "
         "sent, as the server counted them (below 50: the mocks, one core for all, fall "
         "behind); samples made into frames: the server's count of samples processed against "
-        "those the controllers sent (a source that falls behind keeps the newest); states from "
+        "those the controllers sent (a source that falls behind keeps the newest); samples per "
+        "batch: those of one loop turn, made into frames together (/metrics); states from "
         "/api/health at the end of the window. CPU: utime + stime over the window, 100 % = one "
         f"core. Load average (1, 5 min) {load0[0]:.2f}, {load0[1]:.2f} before, "
         f"{load1[0]:.2f}, {load1[1]:.2f} after."

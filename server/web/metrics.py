@@ -17,6 +17,7 @@ from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
 from ..stream import PROTOCOL_VERSIONS
 from ..stream.buckets import Buckets
+from ..stream.turns import turn_batch
 from . import flood, transformation
 from .routes import runtime_of
 
@@ -115,6 +116,17 @@ class RuntimeCollector(Collector):
             "linkview_transformations_refused",
             "fk, ik and move requests answered 503 (too many at once)",
             value=transformation.running.refused,
+        )
+        batch = turn_batch()
+        yield CounterMetricFamily(
+            "linkview_samples_computed",
+            "Samples made into frames in batches (by linkview_sample_batches: the mean batch)",
+            value=batch.sizes,
+        )
+        yield CounterMetricFamily(
+            "linkview_sample_batches",
+            "Loop turns whose samples were made into frames together (server/stream/turns.py)",
+            value=batch.turns,
         )
         delay = _histogram(
             "linkview_sample_to_send_seconds", "From the data layer's sample to each send", []

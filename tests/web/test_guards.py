@@ -102,6 +102,8 @@ async def test_metrics_count_frames_viewers_and_logins() -> None:
     assert values['linkview_viewers{protocol="2"}'] == 1
     assert values['linkview_datalayer_logins_total{source="demo"}'] == 1
     assert values["linkview_sample_to_send_seconds_count"] >= 1
+    batches = values["linkview_sample_batches_total"]
+    assert 1 <= batches <= values["linkview_samples_computed_total"]
     assert values['linkview_kinematics_seconds_count{source="demo"}'] > 0
     assert 0 <= values['linkview_sample_age_seconds{source="demo"}'] < 5
 
