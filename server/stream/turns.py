@@ -39,8 +39,8 @@ class Pending:
 class TurnBatch:
     """Collects the samples of one turn; computes and hands them back at the turn's end."""
 
-    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
-        self._loop = loop
+    def __init__(self) -> None:
+        # No reference to the loop: it keys the registry below, weakly.
         self._pending: list[Pending] = []
         self.sizes = 0
         """Samples computed so far, every turn together (with ``turns``: the mean batch)."""
@@ -49,7 +49,7 @@ class TurnBatch:
     def add(self, pending: Pending) -> None:
         """Compute ``pending`` with the rest of this turn's samples, at its end."""
         if not self._pending:
-            self._loop.call_soon(self._run)
+            asyncio.get_running_loop().call_soon(self._run)
         self._pending.append(pending)
 
     def _run(self) -> None:
@@ -94,5 +94,5 @@ def turn_batch() -> TurnBatch:
     loop = asyncio.get_running_loop()
     batch = _BATCHES.get(loop)
     if batch is None:
-        batch = _BATCHES[loop] = TurnBatch(loop)
+        batch = _BATCHES[loop] = TurnBatch()
     return batch

@@ -180,13 +180,13 @@ class StreamingWebSocketProtocol(WebSocketsSansIOProtocol):
 class _Writes:
     """The connections with frames waiting, written together when one timer fires."""
 
-    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
-        self._loop = loop
+    def __init__(self) -> None:
+        # No reference to the loop: it keys the registry below, weakly.
         self._due: list[StreamingWebSocketProtocol] = []
 
     def add(self, connection: StreamingWebSocketProtocol) -> None:
         if not self._due:
-            self._loop.call_later(WRITE_EVERY_S, self._write)
+            connection.loop.call_later(WRITE_EVERY_S, self._write)
         self._due.append(connection)
 
     def _write(self) -> None:
@@ -202,7 +202,7 @@ def _writes(loop: asyncio.AbstractEventLoop) -> _Writes:
     """The writes of ``loop`` (every viewer of the process shares its timer)."""
     found = _WRITES.get(loop)
     if found is None:
-        found = _WRITES[loop] = _Writes(loop)
+        found = _WRITES[loop] = _Writes()
     return found
 
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import gc
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +13,7 @@ import numpy as np
 from server.cell import Robot, load_cell
 from server.kinematics import Type12
 from server.stream.frames import compute_frame, compute_frames
-from server.stream.turns import Pending, TurnBatch, outcomes_of
+from server.stream.turns import Pending, TurnBatch, outcomes_of, turn_batch
 from server.stream.types import RobotSample
 
 IIWA = (
@@ -106,7 +108,7 @@ def test_a_robot_whose_kinematics_fails_costs_no_other_its_frame(tmp_path: Path)
 
 async def test_samples_of_one_turn_are_computed_together_at_its_end(tmp_path: Path) -> None:
     a, b, c, _ = cell_robots(tmp_path)
-    batch = TurnBatch(asyncio.get_running_loop())
+    batch = TurnBatch()
     got: list[tuple[str, bool, float]] = []
 
     def done(name: str) -> object:
@@ -119,3 +121,16 @@ async def test_samples_of_one_turn_are_computed_together_at_its_end(tmp_path: Pa
     assert [name for name, _, _ in got] == ["a", "b", "c"] and all(ok for _, ok, _ in got)
     assert (batch.turns, batch.sizes) == (1, 3)
     assert all(share > 0 for _, _, share in got)
+
+
+def test_a_finished_event_loop_is_not_kept_alive_by_its_batch() -> None:
+    async def use() -> None:
+        turn_batch()
+
+    loop = asyncio.new_event_loop()
+    loop.run_until_complete(use())
+    loop.close()
+    gone = weakref.ref(loop)
+    del loop
+    gc.collect()
+    assert gone() is None, "the registry must hold loops weakly, and the batch none at all"
