@@ -12,11 +12,11 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from ..cell import Robot
+from ..per_loop import PerLoop
 from .frames import RobotFrame, compute_frame, compute_frames
 from .types import RobotSample
 
@@ -40,7 +40,6 @@ class TurnBatch:
     """Collects the samples of one turn; computes and hands them back at the turn's end."""
 
     def __init__(self) -> None:
-        # No reference to the loop: it keys the registry below, weakly.
         self._pending: list[Pending] = []
         self.sizes = 0
         """Samples computed so far, every turn together (with ``turns``: the mean batch)."""
@@ -84,15 +83,9 @@ def _alone(robot: Robot, sample: RobotSample) -> Outcome:
         return compute_frame(robot, failed), exc
 
 
-_BATCHES: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, TurnBatch] = (
-    weakref.WeakKeyDictionary()
-)
+_BATCHES = PerLoop(TurnBatch)
 
 
 def turn_batch() -> TurnBatch:
     """The running event loop's batch (every acquisition of the process shares it)."""
-    loop = asyncio.get_running_loop()
-    batch = _BATCHES.get(loop)
-    if batch is None:
-        batch = _BATCHES[loop] = TurnBatch()
-    return batch
+    return _BATCHES.get()

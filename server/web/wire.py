@@ -14,10 +14,8 @@ offered to the app as an ASGI extension.
 
 from __future__ import annotations
 
-import asyncio
 import logging
 import struct
-import weakref
 from collections.abc import Callable
 
 from uvicorn._types import ASGISendEvent
@@ -25,6 +23,7 @@ from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIO
 from websockets.frames import Frame
 from websockets.http11 import Request
 
+from ..per_loop import PerLoop
 from ..stream.hub import Payload
 from . import flood
 from .flood import MAX_QUEUED_BYTES, MESSAGES_PER_S, MessageBudget
@@ -159,7 +158,7 @@ class StreamingWebSocketProtocol(WebSocketsSansIOProtocol):
             return False
         if self._outbox is None:
             self._outbox = [frame]
-            _writes(self.loop).add(self)
+            _WRITES.get().add(self)
         else:
             self._outbox.append(frame)
         return True
@@ -181,7 +180,6 @@ class _Writes:
     """The connections with frames waiting, written together when one timer fires."""
 
     def __init__(self) -> None:
-        # No reference to the loop: it keys the registry below, weakly.
         self._due: list[StreamingWebSocketProtocol] = []
 
     def add(self, connection: StreamingWebSocketProtocol) -> None:
@@ -195,15 +193,8 @@ class _Writes:
             connection._flush_outbox()
 
 
-_WRITES: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, _Writes] = weakref.WeakKeyDictionary()
-
-
-def _writes(loop: asyncio.AbstractEventLoop) -> _Writes:
-    """The writes of ``loop`` (every viewer of the process shares its timer)."""
-    found = _WRITES.get(loop)
-    if found is None:
-        found = _WRITES[loop] = _Writes()
-    return found
+_WRITES = PerLoop(_Writes)
+"""The running loop's writes: every viewer of the process shares their timer."""
 
 
 FrameWriter = Callable[[bytes], bool]
