@@ -16,6 +16,7 @@ from ..lateness import lateness
 from .bodies import loads
 from .client import REFUSED, DataLayerClient
 from .connection import connection_error
+from .deadline import ReadDeadline
 from .problem import (
     DataLayerError,
     ProblemError,
@@ -283,8 +284,10 @@ class EventStream:
         self._response = response
         self._client = client
         self._parser = SseParser()
+        self._deadline = ReadDeadline()
         self.dead_after_s = dead_after_s
-        self._alive = lateness().mark()
+        self._lateness = lateness()  # this loop's (a stream lives in one)
+        self._alive = self._lateness.mark()
         """When the last valid event came: silence is counted from here, on-time seconds only."""
         self._junk_bytes = 0
         self._junk: str | None = None
@@ -305,15 +308,16 @@ class EventStream:
         # and that is no fault of the device (see server.lateness).
         left = self.dead_after_s - self._alive.on_time_s()
         try:
-            async with asyncio.timeout(max(min(timeout_s, left), 0.0)):
-                chunk = await self._response.content.readany()
-        except TimeoutError:
-            if self._dead():
-                raise StreamEnded(self._why_dead()) from None
-            return None  # the caller asks again (with what lateness left of the deadline)
+            chunk = await self._deadline.wait(
+                self._response.content.readany(), max(min(timeout_s, left), 0.0)
+            )
         except aiohttp.ClientError as exc:
             reason = connection_error(self._client.base_url, exc)
             raise StreamEnded(f"event stream broke: {reason}") from None
+        if chunk is None:
+            if self._dead():
+                raise StreamEnded(self._why_dead())
+            return None  # the caller asks again (with what lateness left of the deadline)
         if not chunk:
             raise StreamEnded("the server closed the event stream")
         self._client.traffic.bytes_in += len(chunk)
@@ -330,7 +334,7 @@ class EventStream:
                     self._client.redact.error(item.value)
                 items.append(item)
         if items:
-            self._alive, self._junk_bytes, self._junk = lateness().mark(), 0, None
+            self._alive, self._junk_bytes, self._junk = self._lateness.mark(), 0, None
         elif self._dead():
             raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
         return items
@@ -355,6 +359,7 @@ class EventStream:
 
     def close(self) -> None:
         """Drop the connection (there is no polite way to end an SSE response)."""
+        self._deadline.close()
         self._response.close()
 
 
