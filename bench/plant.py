@@ -81,7 +81,7 @@ def metrics(port: int) -> dict[str, float]:
 
 
 def per_batch(before: dict[str, float], after: dict[str, float]) -> float:
-    """Samples made into frames per batch (one per loop turn) over the window."""
+    """Samples made into frames per batch (those of one 2 ms window) over the measuring window."""
     turns = after["linkview_sample_batches_total"] - before["linkview_sample_batches_total"]
     done = after["linkview_samples_computed_total"] - before["linkview_samples_computed_total"]
     return done / turns if turns > 0 else float("nan")
@@ -239,7 +239,7 @@ def main() -> None:
         "sent, as the server counted them (below 50: the mocks, one core for all, fall "
         "behind); samples made into frames: the server's count of samples processed against "
         "those the controllers sent (a source that falls behind keeps the newest); samples per "
-        "batch: those of one loop turn, made into frames together (/metrics); states from "
+        "batch: those arriving within 2 ms, made into frames together (/metrics); states from "
         "/api/health at the end of the window. CPU: utime + stime over the window, 100 % = one "
         f"core. Load average (1, 5 min) {load0[0]:.2f}, {load0[1]:.2f} before, "
         f"{load1[0]:.2f}, {load1[1]:.2f} after."

@@ -18,11 +18,11 @@ import numpy as np
 
 from ..cell import Robot
 from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
+from .batches import Job, Outcome, Pending, sample_batch
 from .buckets import Buckets
 from .frames import encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
-from .turns import Job, Outcome, Pending, turn_batch
 from .types import Array, NoTap, RobotSample, SampleStream, SampleTap
 
 log = logging.getLogger(__name__)
@@ -144,19 +144,20 @@ class Acquisition:
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
         self.tap.sample(self._seq, sample)
-        if self.health.mark_sample(sample.received):
-            self.publish_status()
         if self._settings.sample_cost_s:
             _burn(self._settings.sample_cost_s)
         seq, robots = self._seq, self._robots
         jobs = [(robot, self._robot_sample(robot, sample, seq)) for _, robot in robots]
 
         def done(outcomes: list[Outcome], compute_s: float) -> None:
+            # Connected once its robots have frames: health never shows one without the other.
+            if self.health.mark_sample(sample.received):
+                self.publish_status()
             self.kinematics_time.observe(compute_s)
             self._publish(seq, sample, robots, jobs, outcomes)
 
-        # Computed with the samples of other sources read in this turn of the loop.
-        turn_batch().add(Pending(jobs, done))
+        # Computed with the samples of other sources that arrive within the batch window.
+        sample_batch().add(Pending(jobs, done))
 
     def _robot_sample(self, robot: Robot, sample: Sample, seq: int) -> RobotSample:
         read = [sample.values[n] for n in robot.nodes]

@@ -16,8 +16,8 @@ from prometheus_client.registry import Collector
 from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
 from ..stream import PROTOCOL_VERSIONS
+from ..stream.batches import sample_batch
 from ..stream.buckets import Buckets
-from ..stream.turns import turn_batch
 from . import flood, transformation
 from .routes import runtime_of
 
@@ -117,7 +117,7 @@ class RuntimeCollector(Collector):
             "fk, ik and move requests answered 503 (too many at once)",
             value=transformation.running.refused,
         )
-        batch = turn_batch()
+        batch = sample_batch()
         yield CounterMetricFamily(
             "linkview_samples_computed",
             "Samples made into frames in batches (by linkview_sample_batches: the mean batch)",
@@ -125,8 +125,8 @@ class RuntimeCollector(Collector):
         )
         yield CounterMetricFamily(
             "linkview_sample_batches",
-            "Loop turns whose samples were made into frames together (server/stream/turns.py)",
-            value=batch.turns,
+            "Batches of samples made into frames together (server/stream/batches.py)",
+            value=batch.batches,
         )
         delay = _histogram(
             "linkview_sample_to_send_seconds", "From the data layer's sample to each send", []

@@ -12,8 +12,8 @@ import numpy as np
 
 from server.cell import Robot, load_cell
 from server.kinematics import Type12
+from server.stream.batches import BATCH_WINDOW_S, Pending, SampleBatch, outcomes_of, sample_batch
 from server.stream.frames import compute_frame, compute_frames
-from server.stream.turns import Pending, TurnBatch, outcomes_of, turn_batch
 from server.stream.types import RobotSample
 
 IIWA = (
@@ -106,26 +106,40 @@ def test_a_robot_whose_kinematics_fails_costs_no_other_its_frame(tmp_path: Path)
     assert not failed.ok and isinstance(bug, AttributeError) and "AttributeError" in failed.error  # type: ignore[operator]
 
 
-async def test_samples_of_one_turn_are_computed_together_at_its_end(tmp_path: Path) -> None:
+async def test_samples_of_one_window_are_computed_together_at_its_end(tmp_path: Path) -> None:
     a, b, c, _ = cell_robots(tmp_path)
-    batch = TurnBatch()
+    batch = SampleBatch()
     got: list[tuple[str, bool, float]] = []
 
     def done(name: str) -> object:
         return lambda outcomes, share: got.append((name, outcomes[0][0].ok, share))
 
-    for robot in (a, b, c):
+    for robot in (a, b):
         batch.add(Pending([(robot, RobotSample(1, 0.0, np.zeros(7)))], done(robot.name)))  # type: ignore[arg-type]
-    assert got == [], "nothing is computed before the turn ends"
     await asyncio.sleep(0)
+    assert got == [], "the first sample waits for others"
+    batch.add(Pending([(c, RobotSample(1, 0.0, np.zeros(7)))], done(c.name)))  # type: ignore[arg-type]
+    await asyncio.sleep(BATCH_WINDOW_S * 5)
     assert [name for name, _, _ in got] == ["a", "b", "c"] and all(ok for _, ok, _ in got)
-    assert (batch.turns, batch.sizes) == (1, 3)
+    assert (batch.batches, batch.sizes) == (1, 3)
     assert all(share > 0 for _, _, share in got)
+
+
+async def test_a_flushed_batch_is_computed_at_once_and_its_timer_finds_nothing(
+    tmp_path: Path,
+) -> None:
+    a, *_ = cell_robots(tmp_path)
+    batch, got = SampleBatch(), []
+    batch.add(Pending([(a, RobotSample(1, 0.0, np.zeros(7)))], lambda o, s: got.append(o)))  # type: ignore[arg-type]
+    batch.flush()
+    assert len(got) == 1 and (batch.batches, batch.sizes) == (1, 1)
+    await asyncio.sleep(BATCH_WINDOW_S * 5)  # the window's timer fires on an empty batch
+    assert len(got) == 1 and batch.batches == 1
 
 
 def test_a_finished_event_loop_is_not_kept_alive_by_its_batch() -> None:
     async def use() -> None:
-        turn_batch()
+        sample_batch()
 
     loop = asyncio.new_event_loop()
     loop.run_until_complete(use())
