@@ -257,6 +257,7 @@ class _Latest:
     def __init__(self, nodes: list[str], grace_s: float) -> None:
         self._values: dict[str, float | Exception] = {}
         self._nodes = nodes
+        self._wanted = frozenset(nodes)
         self._grace_s = grace_s
         self._opened = time.monotonic()
         self._t: float | None = None
@@ -266,7 +267,7 @@ class _Latest:
 
     def add(self, item: Update | Keepalive) -> None:
         if isinstance(item, Update):
-            if item.node not in self._nodes:
+            if item.node not in self._wanted:
                 return
             self._values[item.node] = item.value
         if item.t_source is not None:
@@ -284,8 +285,11 @@ class _Latest:
         if not complete and time.monotonic() - self._opened < self._grace_s:
             return None  # the initial events of some nodes are still on their way
         self._changed, received, self._cycles = False, max(self._cycles, 1), 0
-        missing = DataLayerError("the subscription sent no value for this node")
-        values = {n: self._values.get(n, missing) for n in self._nodes}
+        if complete:
+            values = {n: self._values[n] for n in self._nodes}
+        else:
+            missing = DataLayerError("the subscription sent no value for this node")
+            values = {n: self._values.get(n, missing) for n in self._nodes}
         t_source = self._t if self._t is not None else time.time()
         return _checked(Sample(t_source, values, received))
 

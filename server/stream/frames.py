@@ -19,6 +19,7 @@ _OPTS = orjson.OPT_SERIALIZE_NUMPY
 _NO_FLOATS = np.zeros(0)
 _NO_LINKS = _NO_FLOATS.reshape(0, 7)
 _NO_TCP = np.zeros(7)
+_F4 = np.dtype("<f4")
 MAX_ERROR_BYTES = 1024
 """Error texts are cut to this many bytes on the wire (protocol 2's field is 16 bits)."""
 
@@ -165,11 +166,13 @@ def encode_binary(
         sp = frame.setpoint if frame.ok else None
         flags = (FLAG_OK if frame.ok else 0) | (FLAG_SETPOINT if sp is not None else 0)
         parts.append(ROBOT_HEADER.pack(index, flags, len(joints), len(links), len(error)))
-        floats = np.concatenate([joints, links.reshape(-1), tcp]).astype("<f4")
+        floats = np.concatenate([joints, links.reshape(-1), tcp], dtype=_F4, casting="same_kind")
         parts.append(floats.tobytes())
         parts.append(error)
         if sp is not None:
-            floats = np.concatenate([sp.joints, sp.links.reshape(-1), sp.tcp]).astype("<f4")
+            floats = np.concatenate(
+                [sp.joints, sp.links.reshape(-1), sp.tcp], dtype=_F4, casting="same_kind"
+            )
             parts.append(floats.tobytes())
     return b"".join(parts)
 

@@ -82,9 +82,14 @@ class SourceHealth:
 
     def current_state(self) -> str:
         """The state as of now: ``connected`` turns ``stale`` when samples stop coming."""
-        silent = self._silent_s()
-        if self.state == "connected" and silent is not None and silent > self.stale_after_s:
-            return "stale"
+        if self.state != "connected" or self.last_sample is None:
+            return self.state
+        # On-time silence is at most the time elapsed: counted only when that could be stale
+        # (this runs for every sample).
+        if time.monotonic() - self.last_sample > self.stale_after_s:
+            silent = self._silent_s()
+            if silent is not None and silent > self.stale_after_s:
+                return "stale"
         return self.state
 
     @property
