@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 import re
 import secrets
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import unquote
 
 import aiohttp
+import orjson
 
 from ..lateness import lateness
 from .bodies import loads
@@ -24,8 +27,8 @@ from .problem import (
     Unsupported,
     problem_for_status,
 )
-from .timestamps import parse_filetime
-from .values import number_from_data
+from .timestamps import FIRST_FILETIME_S, parse_filetime, unix_from_filetime
+from .values import SCALAR_TYPES, number_from_data
 
 log = logging.getLogger(__name__)
 
@@ -263,6 +266,40 @@ def decode_event(event: SseEvent, nodes_prefix: str) -> Update | Keepalive | Non
     return Update(node, t_source, value)
 
 
+def plain_updates(events: list[SseEvent]) -> list[Update] | None:
+    """The events decoded as ``decode_event`` would, if all are updates of plain numbers; else None.
+
+    The usual publish cycle (an update per node: a float value, a FILETIME
+    stamp, a scalar type) is read without the general path's layers of calls:
+    in a process following 100 controllers decoding took half of reading a
+    stream. Anything else (keepalives, errors, NaN, integer or object values,
+    stamps as strings, malformed JSON) returns None and is decoded event by
+    event. tests/ctrlx/test_ctrlx_units.py checks that both agree.
+    """
+    updates = []
+    for event in events:
+        if event.event != "update":
+            return None
+        try:
+            body = orjson.loads(event.data)
+        except orjson.JSONDecodeError:
+            return None
+        if type(body) is not dict:
+            return None
+        node, value, stamp = body.get("node"), body.get("value"), body.get("timestamp")
+        if (
+            type(node) is not str
+            or type(value) is not float
+            or type(stamp) is not int
+            or body.get("type") not in SCALAR_TYPES
+            or not math.isfinite(value)
+        ):
+            return None
+        t_source = unix_from_filetime(stamp)
+        updates.append(Update(node, t_source if t_source >= FIRST_FILETIME_S else None, value))
+    return updates
+
+
 def _node_of_instance(problem: ProblemError, nodes_prefix: str) -> str | None:
     """The node an error names in ``instance`` (``/automation/api/v2/nodes/<path>``)."""
     if problem.instance and problem.instance.startswith(nodes_prefix):
@@ -292,7 +329,7 @@ class EventStream:
         self._junk_bytes = 0
         self._junk: str | None = None
 
-    async def next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
+    async def next_items(self, timeout_s: float) -> Sequence[Update | Keepalive] | None:
         """The usable events of the next network chunk; None if ``timeout_s`` passed first.
 
         Raises StreamEnded when the server closes the stream, or sends no
@@ -303,7 +340,7 @@ class EventStream:
         except DataLayerError as exc:
             raise self._client.redact.error(exc) from None
 
-    async def _next_items(self, timeout_s: float) -> list[Update | Keepalive] | None:
+    async def _next_items(self, timeout_s: float) -> Sequence[Update | Keepalive] | None:
         # Silence counts only while our loop was on time: a busy process reads late,
         # and that is no fault of the device (see server.lateness).
         left = self.dead_after_s - self._alive.on_time_s()
@@ -322,8 +359,18 @@ class EventStream:
             raise StreamEnded("the server closed the event stream")
         self._client.traffic.bytes_in += len(chunk)
         self._junk_bytes += len(chunk)
+        events = self._parser.feed(chunk)
+        items = plain_updates(events) or self._decoded(events)
+        if items:
+            self._alive, self._junk_bytes, self._junk = self._lateness.mark(), 0, None
+        elif self._dead():
+            raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
+        return items
+
+    def _decoded(self, events: list[SseEvent]) -> list[Update | Keepalive]:
+        """The usable events, one by one; the last unusable one is kept to say why."""
         items: list[Update | Keepalive] = []
-        for event in self._parser.feed(chunk):
+        for event in events:
             try:
                 item = decode_event(event, self._client.paths.nodes)
             except InvalidEvent as exc:
@@ -333,10 +380,6 @@ class EventStream:
                 if isinstance(item, Update) and isinstance(item.value, Exception):
                     self._client.redact.error(item.value)
                 items.append(item)
-        if items:
-            self._alive, self._junk_bytes, self._junk = self._lateness.mark(), 0, None
-        elif self._dead():
-            raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
         return items
 
     def _dead(self) -> bool:

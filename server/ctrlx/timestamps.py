@@ -7,6 +7,8 @@ from typing import Any
 FILETIME_UNIX_EPOCH = 116_444_736_000_000_000
 """FILETIME of 1970-01-01 00:00 UTC."""
 TICKS_PER_S = 10_000_000
+FIRST_FILETIME_S = 315_532_800.0
+"""1980-01-01 in unix seconds: an earlier 'FILETIME' is a counter or a unix time."""
 
 
 def unix_from_filetime(filetime: int) -> float:
@@ -29,4 +31,4 @@ def parse_filetime(raw: Any) -> float | None:
     if isinstance(raw, bool) or not isinstance(raw, int):
         return None
     t = unix_from_filetime(raw)
-    return t if t >= 315_532_800.0 else None
+    return t if t >= FIRST_FILETIME_S else None
