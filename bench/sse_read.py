@@ -166,8 +166,9 @@ def main() -> None:
         f"(1 min) {load0[0]:.2f} before, {load1[0]:.2f} after."
     )
     body = f"{notes}\n\n{markdown_table(header, rows)}\n"
-    print(body)
-    if not args.quick:
+    if args.quick:
+        print("\n" + body)
+    else:  # prints it too
         publish("bench/sse_read.py", "Reading event streams: CPU per chunk, layer by layer", body)
 
 
