@@ -21,7 +21,6 @@ fallback meanwhile shows as a standing caveat in ``client.warning``.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import dataclasses
 import logging
 import math
@@ -102,30 +101,21 @@ def follow(
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
     reprobe = REPROBE_S if reprobe_s is None else reprobe_s
-    samples = _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
-    return _counted(client, samples)
+    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
 
 
-async def _counted(
-    client: DataLayerClient, samples: AsyncGenerator[Sample, None]
-) -> AsyncGenerator[Sample, None]:
-    """``samples``, counting the failed starts on the client: one log line per change of state.
+def _samples_again(client: DataLayerClient) -> None:
+    """A sample came: say so once if starts had failed before.
 
     A device that is down is tried again and again (by whoever restarts
-    ``follow``); each attempt's own lines then go to DEBUG, and the first
-    sample says how many attempts it took.
+    ``follow``); each attempt's own lines then go to DEBUG (``_news``), the
+    failed starts are counted on the client, and the first sample says how
+    many attempts it took.
     """
-    try:
-        async with contextlib.aclosing(samples):
-            async for sample in samples:
-                if client.failed_starts:
-                    failed = plural(client.failed_starts, "failed attempt")
-                    log.info("%s: samples again, after %s", client.base_url, failed)
-                    client.failed_starts = 0
-                yield sample
-    except DataLayerError:
-        client.failed_starts += 1
-        raise
+    if client.failed_starts:
+        failed = plural(client.failed_starts, "failed attempt")
+        log.info("%s: samples again, after %s", client.base_url, failed)
+        client.failed_starts = 0
 
 
 def _news(client: DataLayerClient) -> int:
@@ -159,12 +149,15 @@ async def _follow(
                         client, nodes, period_s, keepalive_s, interruptions
                     ):
                         events.worked()
+                        _samples_again(client)
                         yield sample
                 except Unsupported as exc:
                     events.refused(exc)
             async for sample in _poll(client, nodes, period_s, bulk, events, interruptions):
+                _samples_again(client)
                 yield sample
     except DataLayerError as exc:
+        client.failed_starts += 1
         raise client.redact.error(exc) from None
 
 
