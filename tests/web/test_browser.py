@@ -623,3 +623,31 @@ def test_no_console_error_and_no_request_leaving_the_server(
         and (urlsplit(url).hostname, urlsplit(url).port) != (origin.hostname, origin.port)
     ]
     assert not foreign, f"requests outside {server_url}: {foreign}"
+
+
+MERGE_TWO_PARTS = """async () => {
+  const THREE = await import('three');
+  const { mergedLinkGeometry } = await import('/static/js/merged_links.js');
+  const link = new THREE.Group();
+  const box = new THREE.Mesh(new THREE.BoxGeometry(0.2, 0.1, 0.1));  // indexed
+  const ball = new THREE.Mesh(new THREE.SphereGeometry(0.05, 12, 8).toNonIndexed());
+  ball.position.set(0.3, 0, 0);
+  link.add(box, ball);
+  const parts = [[box, box.geometry, new THREE.Color(1, 0, 0)],
+                 [ball, ball.geometry, new THREE.Color(0, 0, 1)]];
+  const merged = mergedLinkGeometry(link, parts);
+  merged.computeBoundingBox();
+  const corners = box.geometry.index.count + ball.geometry.attributes.position.count;
+  return { indexed: merged.index !== null, triangles: merged.index.count / 3,
+           vertices: merged.attributes.position.count, corners,
+           min: merged.boundingBox.min.toArray(), max: merged.boundingBox.max.toArray() };
+}"""
+
+
+def test_a_merged_link_shares_its_vertices_and_keeps_its_shape(viewer: Watched) -> None:
+    """The lowest level's one mesh per link is indexed: a vertex is shaded once, not per corner."""
+    got = viewer.page.evaluate(MERGE_TWO_PARTS)
+    assert got["indexed"] and got["triangles"] * 3 == got["corners"], got
+    assert got["vertices"] < got["corners"] / 2, got
+    assert np.allclose(got["min"], [-0.1, -0.05, -0.05], atol=1e-6), got
+    assert np.allclose(got["max"], [0.35, 0.05, 0.05], atol=1e-6), got
