@@ -82,6 +82,9 @@ class Acquisition:
         """Times the source failed as a whole."""
         self.kinematics_time = Buckets(KINEMATICS_BUCKETS_S)
         """Seconds per sample spent on the poses of every robot of the source."""
+        self._frames_keys = (f"frames1:{health.name}", f"frames2:{health.name}")
+        self._frames1_kept = False
+        """True while the hub keeps a protocol-1 frame of this source."""
 
     def set_robots(self, robots: list[Robot], indices: Mapping[str, int] | None = None) -> None:
         """Swap in new robot definitions that read the same nodes (a reloaded cell)."""
@@ -189,14 +192,16 @@ class Acquisition:
                     log.warning("robot %s: %s", robot.name, frame.error, exc_info=bug)
         t_sent = time.time()
         binary = encode_binary(frames, seq, sample.t_source, t_sent)
-        name = self.health.name
-        self._hub.publish(f"frames2:{name}", Message(binary, sample.t_source), protocol=2)
+        frames1, frames2 = self._frames_keys
+        self._hub.publish(frames2, Message(binary, sample.t_source), protocol=2)
         if self._hub.wants(1):  # protocol 1 costs a JSON encoding per robot: only when watched
             # One frame message per robot, but sent together: one write per viewer and sample.
             texts = tuple(encode_json(frame, t_sent) for _, frame in frames)
-            self._hub.publish(f"frames1:{name}", Message(texts, sample.t_source), protocol=1)
-        else:  # the last one made is old by now: a protocol-1 viewer joining must not get it
-            self._hub.discard(f"frames1:{name}")
+            self._hub.publish(frames1, Message(texts, sample.t_source), protocol=1)
+            self._frames1_kept = True
+        elif self._frames1_kept:  # the last one made is old now: it must greet no new viewer
+            self._hub.discard(frames1)
+            self._frames1_kept = False
 
     @staticmethod
     def _setpoints(robot: Robot, sample: Sample) -> Array | None:

@@ -166,15 +166,17 @@ def encode_binary(
         sp = frame.setpoint if frame.ok else None
         flags = (FLAG_OK if frame.ok else 0) | (FLAG_SETPOINT if sp is not None else 0)
         parts.append(ROBOT_HEADER.pack(index, flags, len(joints), len(links), len(error)))
-        floats = np.concatenate([joints, links.reshape(-1), tcp], dtype=_F4, casting="same_kind")
-        parts.append(floats.tobytes())
+        parts.append(_float32s(joints, links, tcp))
         parts.append(error)
         if sp is not None:
-            floats = np.concatenate(
-                [sp.joints, sp.links.reshape(-1), sp.tcp], dtype=_F4, casting="same_kind"
-            )
-            parts.append(floats.tobytes())
+            parts.append(_float32s(sp.joints, sp.links, sp.tcp))
     return b"".join(parts)
+
+
+def _float32s(joints: Array, links: Array, tcp: Array) -> bytes:
+    """Joints, link poses and TCP pose as one run of little-endian float32."""
+    floats = np.concatenate([joints, links.reshape(-1), tcp], dtype=_F4, casting="same_kind")
+    return floats.tobytes()
 
 
 def _cut(text: bytes) -> bytes:
