@@ -311,23 +311,7 @@ def test_world_axes_and_grid_spacing_are_labelled(viewer: Watched) -> None:
     page = viewer.page
     page.keyboard.press("Home")  # the iso view of everything
     page.wait_for_timeout(500)  # the camera's damping settles
-    labels = page.evaluate("window.linkview.orientation")
-    assert [label["text"] for label in labels] == ["X", "Y", "Z", "grid 250 mm"], labels
-    assert all(label["inView"] for label in labels), labels
-    # Drawn where they are: each label's own colour around its place on screen (the letters
-    # in the axes' red, green and blue; the grid's spacing in dark grey on the light floor).
-    shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
-    colours = {
-        "X": (224, 65, 47),
-        "Y": (47, 158, 68),
-        "Z": (47, 111, 214),
-        "grid 250 mm": (74, 82, 96),
-    }
-    for label in labels:
-        x, y = round(label["x"]), round(label["y"])
-        box = np.asarray(shot.crop((x - 20, y - 14, x + 20, y + 14)), dtype=np.float64)
-        near = np.abs(box - colours[label["text"]]).max(axis=-1) < 40
-        assert near.sum() >= 15, (label, int(near.sum()))
+    _assert_orientation_drawn(page)
     _screenshot(page, "orientation.png")
 
 
@@ -651,3 +635,67 @@ def test_a_merged_link_shares_its_vertices_and_keeps_its_shape(viewer: Watched) 
     assert got["vertices"] < got["corners"] / 2, got
     assert np.allclose(got["min"], [-0.1, -0.05, -0.05], atol=1e-6), got
     assert np.allclose(got["max"], [0.35, 0.05, 0.05], atol=1e-6), got
+
+
+VERTEX_LIT_BESIDE_LAMBERT = """async () => {
+  const THREE = await import('three');
+  const { vertexLitMaterial } = await import('/static/js/vertex_lit.js');
+  const renderer = new THREE.WebGLRenderer({ antialias: false });
+  renderer.setSize(64, 32, false);
+  renderer.toneMapping = THREE.NeutralToneMapping;  // as the stage's (scene.js)
+  const scene = new THREE.Scene();
+  scene.add(new THREE.HemisphereLight(0xf4f6ff, 0x8a8f99, 1.5));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.9);
+  sun.position.set(2.5, -1.5, 4.0);
+  scene.add(sun);
+  const camera = new THREE.OrthographicCamera(-2, 2, 1, -1, 0.1, 10);
+  camera.position.set(0, 0, 5);
+  // A flat square (one normal): lit at its corners or at each pixel, the same colour.
+  const square = (x, material) => {
+    const geometry = new THREE.PlaneGeometry(1.6, 1.6);
+    const colour = new THREE.Color(0xf07a1a);  // a robot's orange, linear as vertex colours are
+    geometry.setAttribute('color', new THREE.BufferAttribute(
+      new Float32Array(Array(4).fill([colour.r, colour.g, colour.b]).flat()), 3));
+    const mesh = new THREE.Mesh(geometry, material);
+    mesh.position.x = x;
+    mesh.rotation.x = -0.5;  // turned to the sun a little
+    scene.add(mesh);
+  };
+  square(-1, vertexLitMaterial());
+  square(1, new THREE.MeshLambertMaterial({ vertexColors: true }));
+  renderer.render(scene, camera);
+  const gl = renderer.getContext();
+  const pixel = (x) => { const p = new Uint8Array(4); gl.readPixels(x, 16, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, p); return [...p.slice(0, 3)]; };
+  const result = { vertexLit: pixel(16), lambert: pixel(48) };
+  renderer.dispose();
+  return result;
+}"""
+
+
+def test_vertex_lit_links_match_three_lambert_colours(viewer: Watched) -> None:
+    """The lowest level lights, tone maps and sRGB-encodes at the vertices; the colour stays three's."""
+    got = viewer.page.evaluate(VERTEX_LIT_BESIDE_LAMBERT)
+    assert max(got["lambert"]) > 60, got  # lit, not black
+    assert np.abs(np.subtract(got["vertexLit"], got["lambert"])).max() <= 3, got
+
+
+def _assert_orientation_drawn(page: Page) -> None:
+    """The world axes' letters and the grid's label are drawn where the page says they are."""
+    labels = page.evaluate("window.linkview.orientation")
+    assert [label["text"] for label in labels] == ["X", "Y", "Z", "grid 250 mm"], labels
+    assert all(label["inView"] for label in labels), labels
+    # Each label's own colour around its place on screen (the letters in the axes' red,
+    # green and blue; the grid's spacing in dark grey on the light floor).
+    shot = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
+    colours = {
+        "X": (224, 65, 47),
+        "Y": (47, 158, 68),
+        "Z": (47, 111, 214),
+        "grid 250 mm": (74, 82, 96),
+    }
+    for label in labels:
+        x, y = round(label["x"]), round(label["y"])
+        box = np.asarray(shot.crop((x - 20, y - 14, x + 20, y + 14)), dtype=np.float64)
+        near = np.abs(box - colours[label["text"]]).max(axis=-1) < 40
+        assert near.sum() >= 15, (label, int(near.sum()))
+
