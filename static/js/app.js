@@ -51,9 +51,9 @@ class App {
 		this.plots = new JointPlots( root.getElementById( 'plots' ), root.getElementById( 'plot-velocity' ) );
 		this.sim = new SimPanel( root, this.stage );
 		this.clearance = new ClearanceWarning( root, this.stage, this.robots );
-		this.panels = new Panels( root, ( left, right ) => {
+		this.panels = new Panels( root, ( left, right, bottom ) => {
 
-			this.stage.setInsets( left, right );
+			this.stage.setInsets( left, right, bottom );
 			this.plots.resize();
 
 		} );

@@ -1,5 +1,6 @@
 // The two side panels: collapsible, collapsed by default on narrow screens, and
-// reported to the scene so framing keeps the robots in the part they leave free.
+// reported to the scene so framing keeps the robots in the part they leave free
+// (and the canvas spans only that part).
 
 const NARROW = '(max-width: 800px)';
 const GAP_PX = 14; // panels sit this far from the window's edge
@@ -8,7 +9,7 @@ class Panels {
 
 	constructor( root, onInsets ) {
 
-		this.onInsets = onInsets; // (leftPx, rightPx) => void
+		this.onInsets = onInsets; // (leftPx, rightPx, bottomPx) => void
 		this.narrow = window.matchMedia( NARROW );
 		this.panels = [ ...root.querySelectorAll( '.panel' ) ].map( ( panel ) => {
 
@@ -25,8 +26,15 @@ class Panels {
 		// On a narrow screen an open panel ends above the timeline bar, whose height
 		// depends on how its rows wrap: keep that height in a CSS variable.
 		this._bar = root.querySelector( '.timeline' );
-		this._barObserver = new ResizeObserver( () => this._barSpace() );
+		this._barObserver = new ResizeObserver( () => {
+
+			this._barSpace();
+			this._report();
+
+		} );
 		if ( this._bar ) this._barObserver.observe( this._bar );
+		this._onResize = () => this._report(); // the bar is centred: whether it spans the free part depends on the width
+		window.addEventListener( 'resize', this._onResize );
 		this._defaults();
 
 	}
@@ -91,13 +99,25 @@ class Panels {
 			else right = width;
 
 		}
-		this.onInsets( left, right );
+		this.onInsets( left, right, this._barCover( left, right ) );
+
+	}
+
+	// The timeline bar floats over the bottom of the view: where it spans the whole
+	// part the side panels leave free, the canvas ends above it.
+	_barCover( left, right ) {
+
+		if ( ! this._bar || this._bar.hidden ) return 0;
+		const bar = this._bar.getBoundingClientRect();
+		const spans = bar.left <= left && bar.right >= window.innerWidth - right;
+		return spans ? Math.max( 0, Math.ceil( window.innerHeight - bar.top ) ) : 0;
 
 	}
 
 	dispose() {
 
 		this.narrow.removeEventListener( 'change', this._onNarrow );
+		window.removeEventListener( 'resize', this._onResize );
 		this._observer.disconnect();
 		this._barObserver.disconnect();
 

@@ -48,7 +48,8 @@ class Stage {
 		this.container = container;
 		this.settings = { ...settings };
 		this._loop = null;
-		this.insets = { left: 0, right: 0 }; // px of the window covered by panels
+		this.insets = { left: 0, right: 0, bottom: 0 }; // px of the window covered by panels and the timeline bar
+		this.viewRect = { left: 0, width: 1, height: 1 }; // where the canvas lies: set by resize()
 
 		this.scene = new THREE.Scene();
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
@@ -251,25 +252,31 @@ class Stage {
 	}
 
 	/**
-	 * Pixels of the window's left and right covered by panels. The canvas spans only
-	 * the part they leave free: without a GPU every pixel of the canvas is drawn and
-	 * composited in software each frame, and those under an opaque panel are never seen
-	 * (bench/page_fps.py). Where that part would be too narrow, the canvas spans the window.
+	 * Pixels of the window's left, right and bottom covered by panels and the timeline
+	 * bar. The canvas spans only the part they leave free: without a GPU every pixel of
+	 * the canvas is drawn and composited in software each frame, and those under an
+	 * opaque panel are never seen (bench/page_fps.py). Where that part would be too
+	 * narrow, the canvas spans the window.
 	 */
-	setInsets( left, right ) {
+	setInsets( left, right, bottom = 0 ) {
 
-		this.insets = { left, right };
+		this.insets = { left, right, bottom };
 		this.resize();
 
 	}
 
-	/** Where the canvas lies in the container (CSS px): { left, width, height }. */
-	get viewRect() {
+	/**
+	 * Where the canvas lies in the container (CSS px): { left, width, height } from its top.
+	 * Measured when the window or the insets change (resize()), not on each call: reading
+	 * the container's size forces a style and layout pass, and the labels ask every frame.
+	 */
+	_measureView() {
 
 		const full = this.container.clientWidth || window.innerWidth;
-		const height = this.container.clientHeight || window.innerHeight;
+		const tall = this.container.clientHeight || window.innerHeight;
 		const free = full - this.insets.left - this.insets.right;
-		if ( free < MIN_FREE_SHARE * full ) return { left: 0, width: full, height };
+		if ( free < MIN_FREE_SHARE * full ) return { left: 0, width: full, height: tall };
+		const height = tall - this.insets.bottom < MIN_FREE_SHARE * tall ? tall : tall - this.insets.bottom;
 		return { left: this.insets.left, width: free, height };
 
 	}
@@ -349,6 +356,7 @@ class Stage {
 
 	resize() {
 
+		this.viewRect = this._measureView();
 		const { left, width, height } = this.viewRect;
 		this.camera.aspect = width / height;
 		this.camera.updateProjectionMatrix();
@@ -356,6 +364,7 @@ class Stage {
 		const style = this.renderer.domElement.style;
 		style.left = `${left}px`;
 		style.width = `${width}px`;
+		style.height = `${height}px`;
 
 	}
 

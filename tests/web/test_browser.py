@@ -679,6 +679,14 @@ def test_vertex_lit_links_match_three_lambert_colours(viewer: Watched) -> None:
     assert np.abs(np.subtract(got["vertexLit"], got["lambert"])).max() <= 3, got
 
 
+VIEW_BOXES = """() => {
+  const box = (s) => { const r = document.querySelector(s).getBoundingClientRect();
+                       return { left: r.left, right: r.right, top: r.top, bottom: r.bottom }; };
+  return { canvas: box('#viewport canvas'), bar: box('#timeline'), hud: box('#hud'),
+           inspector: box('#inspector'), height: innerHeight };
+}"""
+
+
 def _assert_orientation_drawn(page: Page) -> None:
     """The world axes' letters and the grid's label are drawn where the page says they are."""
     labels = page.evaluate("window.linkview.orientation")
@@ -699,3 +707,32 @@ def _assert_orientation_drawn(page: Page) -> None:
         near = np.abs(box - colours[label["text"]]).max(axis=-1) < 40
         assert near.sum() >= 15, (label, int(near.sum()))
 
+
+def test_the_canvas_spans_only_what_the_panels_and_the_bar_leave_free(viewer: Watched) -> None:
+    """Software WebGL draws every canvas pixel each frame: none hidden under a panel or the bar."""
+    page = viewer.page
+    at = page.evaluate(VIEW_BOXES)
+    canvas, bar = at["canvas"], at["bar"]
+    assert canvas["left"] >= at["hud"]["right"] and canvas["right"] <= at["inspector"]["left"], at
+    # At 1280 px the centred bar spans the part between the panels: the canvas ends above it.
+    assert bar["left"] <= canvas["left"] and bar["right"] >= canvas["right"], at
+    assert abs(canvas["bottom"] - bar["top"]) <= 1, at
+    page.keyboard.press("Home")
+    page.wait_for_timeout(500)  # the camera's damping settles
+    _assert_orientation_drawn(page)
+    # Wider, the bar leaves the view's lower corners free: the canvas goes down to the bottom,
+    # and what is drawn on it still lies where the page computes it.
+    page.set_viewport_size({"width": 1700, "height": 800})
+    try:
+        page.wait_for_function(
+            "() => document.querySelector('#viewport canvas').getBoundingClientRect().bottom === innerHeight"
+        )
+        page.keyboard.press("Home")
+        page.wait_for_timeout(500)
+        _assert_orientation_drawn(page)
+    finally:
+        page.set_viewport_size({"width": 1280, "height": 800})
+    page.wait_for_function(
+        """() => Math.abs(document.querySelector('#viewport canvas').getBoundingClientRect().bottom
+                 - document.querySelector('#timeline').getBoundingClientRect().top) <= 1"""
+    )
