@@ -87,7 +87,7 @@ class SimPanel {
 		const marker = new THREE.Group();
 		marker.name = 'target';
 		const ball = new THREE.Mesh(
-			new THREE.SphereGeometry( 0.018, 20, 12 ),
+			new THREE.SphereGeometry( 0.018, 16, 8 ), // flat colour: as robot.js's TCP ball
 			new THREE.MeshBasicMaterial( { color: 0xff2d95, transparent: true, opacity: 0.7, depthTest: false } )
 		);
 		ball.renderOrder = 12;
