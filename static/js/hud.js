@@ -2,7 +2,7 @@ import { Banner } from './banner.js';
 import { button, checkbox, element, setText } from './dom.js';
 import { NEAR_LIMIT } from './plots.js';
 import { rpyFromQuaternion } from './rpy.js';
-import { RAD_TO_DEG, displayScale, fixed, formatJoint } from './units.js';
+import { RAD_TO_DEG, clockTime, displayScale, fixed, formatJoint } from './units.js';
 
 const SERVER_TEXT = {
 	connecting: 'server: connecting',
@@ -39,13 +39,6 @@ function warningList( warnings ) {
  * warnings), the data sources from
  * `status`, and the banner.
  */
-/** Wall-clock time of unix seconds `t`, as the viewer's clock reads it (HH:MM:SS). */
-function clockTime( t ) {
-
-	return new Date( t * 1000 ).toLocaleTimeString( [], { hour12: false } );
-
-}
-
 class Hud {
 
 	constructor( root, handlers ) {

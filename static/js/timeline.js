@@ -1,5 +1,6 @@
 import { fetchSummary, fetchWindow, lastAtOrBefore } from './history.js';
 import { JointHistory } from './plots.js';
+import { clockTime } from './units.js';
 
 const SPEEDS = [ 0.25, 1, 4 ];
 const BACK_S = 11; // fetched before the moment: trails and the 10 s joint plots
@@ -10,8 +11,7 @@ const POSE = 7;
 
 function clock( t ) {
 
-	const date = new Date( t * 1000 );
-	return `${date.toLocaleTimeString( [], { hour12: false } )}.${String( date.getMilliseconds() ).padStart( 3, '0' )}`;
+	return `${clockTime( t )}.${String( Math.floor( t * 1000 ) % 1000 ).padStart( 3, '0' )}`;
 
 }
 
