@@ -8,8 +8,8 @@ const LEVELS = [
 	{ name: 'pixel ratio 1', shadows: false, antialias: false, pixelRatio: 1, environment: true, simpleMaterials: false },
 	{ name: 'no environment', shadows: false, antialias: false, pixelRatio: 1, environment: false, simpleMaterials: false },
 	// Beyond the four steps of issue 8: software rendering pays per pixel and per
-	// triangle; Lambert shading costs a fraction of PBR, and a third of the triangles
-	// draw the same silhouettes.
+	// triangle; Lambert shading costs a fraction of PBR, and a seventh of the triangles
+	// draw the same silhouettes at the size robots have on screen (robot.js).
 	{ name: 'simple meshes', shadows: false, antialias: false, pixelRatio: 1, environment: false, simpleMaterials: true },
 ];
 

@@ -19,12 +19,16 @@ const _up = new THREE.Vector3( 0, 1, 0 );
 const GREY = new THREE.MeshStandardMaterial( { color: 0xa3a8b0, roughness: 0.85, metalness: 0, transparent: true, opacity: 0.6 } );
 const _simple = new WeakMap(); // PBR material -> its Lambert stand-in
 const _coarse = new WeakMap(); // geometry -> Promise of its simplified copy
-const SIMPLE_SHARE = 0.3; // of a mesh's vertices kept at the lowest quality
+const SIMPLE_SHARE = 0.15; // of a mesh's vertices kept at the lowest quality
 let _simplifier = null;
 
-// Software rendering also pays per triangle: the lowest level draws each mesh with
-// about a third of its vertices (meshoptimizer through three's SimplifyModifier;
-// fast, and shared by every mesh using the same geometry).
+// Software rendering also pays per triangle: SwiftShader sets triangles up in small
+// batches, and the links' triangles were the largest part of a frame in Chromium's
+// default path (bench/page_fps.py). The lowest level draws each mesh with about a
+// seventh of its vertices (meshoptimizer through three's SimplifyModifier; fast, and
+// shared by every mesh using the same geometry): a link some 100 px tall on screen keeps
+// its silhouette with a few hundred triangles. From a third to a seventh saved 4.6 ms of
+// the GPU process's CPU per frame (A/B, 4 runs each).
 function coarseGeometry( geometry ) {
 
 	let coarse = _coarse.get( geometry );
