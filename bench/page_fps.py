@@ -226,10 +226,13 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
     rate = frames_per_second(page, seconds)
     plots = (page.evaluate("window.linkview.plots.redraws") - redraws) / seconds
     info = page.evaluate("window.linkview.renderInfo")
+    ended = page.evaluate("window.linkview.quality")["level"]
+    # 'auto' may step up (or down) while it is counted: say so, the draws are the last level's.
+    moved = "" if ended == settled["level"] else f", level {ended} by the end"
     fps, cpu = rate.cells()
     rows.append(
         [
-            f"**page, auto** (level {settled['level']} after {AUTO_SETTLE_MS / 1000:g} s)",
+            f"**page, auto** (level {settled['level']} after {AUTO_SETTLE_MS / 1000:g} s{moved})",
             f"**{fps}**",
             cpu,
             f"{plots:.1f}",
