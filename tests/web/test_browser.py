@@ -665,7 +665,11 @@ VERTEX_LIT_BESIDE_LAMBERT = """async () => {
   square(1, new THREE.MeshLambertMaterial({ vertexColors: true }));
   renderer.render(scene, camera);
   const gl = renderer.getContext();
-  const pixel = (x) => { const p = new Uint8Array(4); gl.readPixels(x, 16, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, p); return [...p.slice(0, 3)]; };
+  const pixel = (x) => {
+    const p = new Uint8Array(4);
+    gl.readPixels(x, 16, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, p);
+    return [...p.slice(0, 3)];
+  };
   const result = { vertexLit: pixel(16), lambert: pixel(48) };
   renderer.dispose();
   return result;
@@ -673,7 +677,7 @@ VERTEX_LIT_BESIDE_LAMBERT = """async () => {
 
 
 def test_vertex_lit_links_match_three_lambert_colours(viewer: Watched) -> None:
-    """The lowest level lights, tone maps and sRGB-encodes at the vertices; the colour stays three's."""
+    """The lowest level lights, tone maps and encodes sRGB per vertex; the colour stays three's."""
     got = viewer.page.evaluate(VERTEX_LIT_BESIDE_LAMBERT)
     assert max(got["lambert"]) > 60, got  # lit, not black
     assert np.abs(np.subtract(got["vertexLit"], got["lambert"])).max() <= 3, got
@@ -725,7 +729,8 @@ def test_the_canvas_spans_only_what_the_panels_and_the_bar_leave_free(viewer: Wa
     page.set_viewport_size({"width": 1700, "height": 800})
     try:
         page.wait_for_function(
-            "() => document.querySelector('#viewport canvas').getBoundingClientRect().bottom === innerHeight"
+            "() => document.querySelector('#viewport canvas').getBoundingClientRect().bottom"
+            " === innerHeight"
         )
         page.keyboard.press("Home")
         page.wait_for_timeout(500)
