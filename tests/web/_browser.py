@@ -142,17 +142,22 @@ START_BANNER_LOG = """() => {
   const banner = document.getElementById('banner');
   const text = () => banner.hidden ? '' : banner.textContent;
   window.__bannerLog = [text()];
-  clearInterval(window.__bannerTimer);
-  window.__bannerTimer = setInterval(() => {
+  window.__bannerSample = () => {
     const now = text();
     if (now !== window.__bannerLog[window.__bannerLog.length - 1]) window.__bannerLog.push(now);
-  }, 50);
+  };
+  clearInterval(window.__bannerTimer);
+  window.__bannerTimer = setInterval(window.__bannerSample, 50);
 }"""
 
 
 def banner_log(page: Page) -> list[str]:
-    """Every banner text the sampler saw, in order (consecutive duplicates removed)."""
-    log: list[str] = page.evaluate("window.__bannerLog")
+    """Every banner text the sampler saw, in order (consecutive duplicates removed).
+
+    The banner as it is now is sampled once more first: on a busy page the 50 ms timer
+    may not have run since the test saw the banner change.
+    """
+    log: list[str] = page.evaluate("() => { window.__bannerSample(); return window.__bannerLog; }")
     return log
 
 
