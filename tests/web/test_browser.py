@@ -410,10 +410,14 @@ def test_jogging_coalesces_moves(viewer: Watched) -> None:
         for (let i = 0; i < 40; i++) { s.value = String(-20 + i * 0.5);
           s.dispatchEvent(new Event('input', { bubbles: true })); } }"""
     )
+    # Both moves out and the newest one reached (the demo cycle alone may pass -0.5 deg, so
+    # the readout by itself proves nothing), then nothing else goes out.
     page.wait_for_function(
-        "() => Math.abs(window.linkview.readout('kin12').joints[0] * 180 / Math.PI - (-0.5)) < 0.6",
+        f"""() => window.linkview.sim.jogs - {before} >= 2
+          && Math.abs(window.linkview.readout('kin12').joints[0] * 180 / Math.PI - (-0.5)) < 0.6""",
         timeout=TIMEOUT_MS,
     )
+    page.wait_for_timeout(500)
     assert page.evaluate("window.linkview.sim.jogs") - before == 2
 
 
