@@ -9,14 +9,13 @@ server does, up to a given layer:
 
 - ``socket``: an asyncio protocol that only counts chunks (the floor: uvloop
   and the kernel);
-- ``aiohttp``: the subscription's response read with ``readany()`` (aiohttp's
-  HTTP parser, stream reader and a task wake-up per chunk);
-- ``+ asyncio.timeout``: the same, each read in ``asyncio.timeout`` (how the
-  stream's watchdog read before server/ctrlx/deadline.py);
-- ``+ ReadDeadline``: each read under the stream's reusable deadline instead;
-- ``EventStream``: ``next_items`` (deadline, SSE parsing, event decoding);
-- ``follow()``: the samples as the acquisition gets them (the gathering of a
-  cycle's events into a sample, and the generators between).
+- ``aiohttp``: the subscription's response opened by aiohttp and read with
+  ``readany()`` (aiohttp's HTTP parser, stream reader and a task wake-up per
+  chunk), as linkview read every stream before server/ctrlx/stream_wire.py;
+- ``EventStream``: linkview's own GET, its chunks parsed and decoded as
+  they arrive (no task);
+- ``follow_into()``: the samples as the acquisition gets them (the
+  gathering of a cycle's events into a sample).
 
 Reported: chunks per second, this process's CPU, and CPU µs per chunk
 (= per robot-sample). Each layer runs in a fresh process.
@@ -44,18 +43,16 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, publish  # noqa: E402
 from cluster import ARM_JOINTS, start_farms  # noqa: E402
+from yarl import URL  # noqa: E402
 
-from server.ctrlx import Credentials, DataLayerClient, follow  # noqa: E402
-from server.ctrlx.deadline import ReadDeadline  # noqa: E402
-from server.ctrlx.events import EventStream, Subscription, SubscriptionSettings  # noqa: E402
+from server.ctrlx import Credentials, DataLayerClient, follow_into  # noqa: E402
+from server.ctrlx.events import Subscription, SubscriptionSettings  # noqa: E402
 
 LAYERS = {
     "socket": "socket only (uvloop, kernel)",
-    "aiohttp": "aiohttp readany",
-    "timeout": "+ asyncio.timeout per read",
-    "deadline": "+ ReadDeadline per read",
-    "events": "EventStream.next_items",
-    "follow": "follow(): samples",
+    "aiohttp": "aiohttp readany (bytes only)",
+    "events": "EventStream: events decoded",
+    "follow": "follow_into(): samples",
 }
 SETTINGS = SubscriptionSettings(publish_interval_ms=20)
 WARM_UP_S = 3.0
@@ -64,31 +61,29 @@ WARM_UP_S = 3.0
 async def read_layer(layer: str, url: str, count: list[int]) -> None:
     """Read one controller's stream up to ``layer``, counting chunks (samples) in ``count``."""
     client = DataLayerClient(url, Credentials("boschrexroth", "boschrexroth"))
+
+    def counted(*_: object) -> None:
+        count[0] += 1
+
     if layer == "follow":
-        async for _ in follow(client, ARM_JOINTS, 0.02):
-            count[0] += 1
-    stream = await Subscription(client, ARM_JOINTS, SETTINGS).open()
-    content = stream._response.content  # the layer below EventStream
+        await follow_into(client, ARM_JOINTS, 0.02, counted)
+    subscription = Subscription(client, ARM_JOINTS, SETTINGS)
+    stream = await subscription.open(counted)  # creates the subscription
+    if layer == "events":
+        await stream.ended
+        raise RuntimeError("the stream ended")
+    stream.close()
+    path = f"{client.paths.events}/{subscription.id}"
     if layer == "socket":
-        await socket_only(client, stream, count)
-    deadline = ReadDeadline()
-    while True:
-        if layer == "aiohttp":
-            await content.readany()
-        elif layer == "timeout":
-            async with asyncio.timeout(5.0):
-                await content.readany()
-        elif layer == "deadline":
-            await deadline.wait(content.readany(), 5.0)
-        else:
-            await stream.next_items(5.0)
+        await socket_only(client, path, count)
+    response = await client.open_stream(path)
+    while await response.content.readany():
         count[0] += 1
 
 
-async def socket_only(client: DataLayerClient, stream: EventStream, count: list[int]) -> None:
+async def socket_only(client: DataLayerClient, path: str, count: list[int]) -> None:
     """The same stream (same URL and token) read by a protocol that only counts chunks."""
-    url, token = stream._response.url, await client.tokens.current()
-    stream.close()
+    url, token = URL(client.base_url + path), await client.tokens.current()
 
     class Counting(asyncio.Protocol):
         def data_received(self, data: bytes) -> None:

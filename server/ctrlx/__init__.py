@@ -4,7 +4,7 @@ from .auth import API_PATHS, ApiVersion, LoginBackoff, Token, TokenManager
 from .checks import check_base_url
 from .client import BulkRead, Credentials, DataLayerClient, Traffic
 from .events import SseEvent, SseParser, SubscriptionSettings
-from .follow import MODES, REPROBE_S, Mode, RetryPolicy, Sample, follow
+from .follow import MODES, REPROBE_S, Mode, RetryPolicy, Sample, follow, follow_into
 from .paths import encode_node_path
 from .problem import (
     AuthError,
@@ -48,5 +48,6 @@ __all__ = [
     "encode_node_path",
     "filetime_from_unix",
     "follow",
+    "follow_into",
     "unix_from_filetime",
 ]

@@ -93,6 +93,7 @@ class DataLayerClient:
         self._credentials = credentials
         self.ca_file = ca_file
         self._ssl = ssl_context
+        self._own_ssl: ssl.SSLContext | None = None
         self._reread_ca = ca_file is not None
         """Read ``ca_file`` before the next request (first, and after a failed connection)."""
         self._verified = False
@@ -254,16 +255,32 @@ class DataLayerClient:
                 yield
             self._verified = True
         except TimeoutError:
-            self._reread_ca = True
-            raise DataLayerError(
-                f"{method} {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
-            ) from None
+            raise self.no_answer(method, path) from None
         except aiohttp.ClientConnectorCertificateError as exc:
             self._reread_ca = True
             raise await self._certificate_error(exc) from None
         except aiohttp.ClientError as exc:
             self._reread_ca = True
             raise connection_error(self.base_url, exc) from None
+
+    def no_answer(self, method: str, path: str) -> DataLayerError:
+        """The error for a request the device did not answer within ``timeout_s``."""
+        self._reread_ca = True
+        return DataLayerError(
+            f"{method} {path}: no answer from {self.base_url} within {self.timeout_s:g} s"
+        )
+
+    def stream_ssl(self) -> ssl.SSLContext:
+        """The TLS context for a connection of our own to the device (see stream_wire)."""
+        self._fresh_ca()
+        if isinstance(self._ssl, ssl.SSLContext):
+            return self._ssl
+        if self._own_ssl is None:  # what aiohttp makes of ssl=True (verify) and False (don't)
+            self._own_ssl = ssl.create_default_context()
+            if self._ssl is False:
+                self._own_ssl.check_hostname = False
+                self._own_ssl.verify_mode = ssl.CERT_NONE
+        return self._own_ssl
 
     def _fresh_ca(self) -> None:
         """Read the CA file again after a failed connection (the device may have a new one)."""

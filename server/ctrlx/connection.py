@@ -30,11 +30,16 @@ def connection_error(base_url: str, exc: aiohttp.ClientError) -> DataLayerError:
     if isinstance(exc, aiohttp.ClientPayloadError):
         return DataLayerError(f"the connection to {base_url} broke in the middle of an answer")
     if isinstance(exc, aiohttp.ClientOSError):
-        return DataLayerError(f"the connection to {base_url} failed: {_os_reason(exc)}")
+        return os_error(base_url, exc)
     if isinstance(exc, aiohttp.ClientResponseError):
         # aiohttp's text for a malformed answer quotes the device's bytes: name the kind only.
         return DataLayerError(f"{base_url} sent an answer that is not valid HTTP")
     return DataLayerError(f"request to {base_url} failed: {exc or _kind(exc)}")
+
+
+def os_error(base_url: str, exc: OSError) -> DataLayerError:
+    """A readable error for a connection that failed at the OS level (reset, unreachable)."""
+    return DataLayerError(f"the connection to {base_url} failed: {_os_reason(exc)}")
 
 
 def _os_reason(exc: OSError) -> str:

@@ -7,19 +7,16 @@ import logging
 import math
 import re
 import secrets
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import unquote
 
-import aiohttp
 import orjson
 
 from ..lateness import lateness
 from .bodies import loads
 from .client import REFUSED, DataLayerClient
-from .connection import connection_error
-from .deadline import ReadDeadline
 from .problem import (
     DataLayerError,
     ProblemError,
@@ -27,6 +24,7 @@ from .problem import (
     Unsupported,
     problem_for_status,
 )
+from .stream_wire import ByteSource, open_stream_into
 from .timestamps import FIRST_FILETIME_S, parse_filetime, unix_from_filetime
 from .values import SCALAR_TYPES, number_from_data
 
@@ -307,65 +305,70 @@ def _node_of_instance(problem: ProblemError, nodes_prefix: str) -> str | None:
     return None
 
 
-class EventStream:
-    """One open event stream: decoded events, and a watchdog on silence and junk.
+Items = Callable[[Sequence[Update | Keepalive], bool], None]
+"""Takes the usable events of a chunk, and whether the chunk ended inside an event."""
 
-    The stream counts as dead when no valid event (update, keepalive, node
-    error) arrived for ``dead_after_s``, whether it sent nothing or only bytes
-    we cannot use.
+
+class EventStream:
+    """One open event stream: its events decoded as they arrive, and a watchdog on silence and junk.
+
+    The bytes come from ``data_received`` (see stream_wire), so everything
+    here runs without a task. ``ended`` resolves to why the stream ended: the
+    server closed it, it broke, it sent no valid event (update, keepalive,
+    node error) for ``dead_after_s``, whether it sent nothing or only bytes we
+    cannot use, or ``on_items`` raised.
     """
 
-    def __init__(
-        self, response: aiohttp.ClientResponse, client: DataLayerClient, dead_after_s: float
-    ) -> None:
-        self._response = response
+    def __init__(self, client: DataLayerClient, dead_after_s: float, on_items: Items) -> None:
         self._client = client
+        self._on_items = on_items
         self._parser = SseParser()
-        self._deadline = ReadDeadline()
         self.dead_after_s = dead_after_s
         self._lateness = lateness()  # this loop's (a stream lives in one)
         self._alive = self._lateness.mark()
         """When the last valid event came: silence is counted from here, on-time seconds only."""
         self._junk_bytes = 0
         self._junk: str | None = None
+        loop = asyncio.get_running_loop()
+        self.ended: asyncio.Future[Exception] = loop.create_future()
+        self._source: ByteSource | None = None
+        self._watchdog = loop.call_later(dead_after_s, self._watch)
 
-    async def next_items(self, timeout_s: float) -> Sequence[Update | Keepalive] | None:
-        """The usable events of the next network chunk; None if ``timeout_s`` passed first.
+    async def connect(self, path: str, params: dict[str, str] | None = None) -> None:
+        """GET the stream at ``path``; raises what the client raises when there is none."""
+        self._source = await open_stream_into(self._client, path, params, self.feed, self.end)
 
-        Raises StreamEnded when the server closes the stream, or sends no
-        valid event for ``dead_after_s``, or breaks the parser's bounds.
-        """
-        try:
-            return await self._next_items(timeout_s)
-        except DataLayerError as exc:
-            raise self._client.redact.error(exc) from None
-
-    async def _next_items(self, timeout_s: float) -> Sequence[Update | Keepalive] | None:
-        # Silence counts only while our loop was on time: a busy process reads late,
-        # and that is no fault of the device (see server.lateness).
-        left = self.dead_after_s - self._alive.on_time_s()
-        try:
-            chunk = await self._deadline.wait(
-                self._response.content.readany(), max(min(timeout_s, left), 0.0)
-            )
-        except aiohttp.ClientError as exc:
-            reason = connection_error(self._client.base_url, exc)
-            raise StreamEnded(f"event stream broke: {reason}") from None
-        if chunk is None:
-            if self._dead():
-                raise StreamEnded(self._why_dead())
-            return None  # the caller asks again (with what lateness left of the deadline)
-        if not chunk:
-            raise StreamEnded("the server closed the event stream")
-        self._client.traffic.bytes_in += len(chunk)
+    def feed(self, chunk: bytes) -> None:
+        """Parse and hand on the events ``chunk`` completes."""
+        if self.ended.done():
+            return
         self._junk_bytes += len(chunk)
-        events = self._parser.feed(chunk)
-        items = plain_updates(events) or self._decoded(events)
-        if items:
-            self._alive, self._junk_bytes, self._junk = self._lateness.mark(), 0, None
-        elif self._dead():
-            raise StreamEnded(self._why_dead())  # bytes keep coming, but nothing usable
-        return items
+        try:
+            events = self._parser.feed(chunk)
+            items = plain_updates(events) or self._decoded(events)
+            if items:
+                self._alive, self._junk_bytes, self._junk = self._lateness.mark(), 0, None
+                self._on_items(items, self._parser.pending)
+        except Exception as exc:  # the stream's end, raised where its owner waits
+            self.end(exc)
+
+    def end(self, why: Exception) -> None:
+        """End the stream for ``why`` (the first reason counts)."""
+        if self.ended.done():
+            return
+        if isinstance(why, DataLayerError):
+            why = self._client.redact.error(why)
+        self.ended.set_result(why)
+        self.close()
+
+    def _watch(self) -> None:
+        """Silence counts only while our loop was on time: a busy process reads late,
+        and that is no fault of the device (see server.lateness)."""
+        left = self.dead_after_s - self._alive.on_time_s()
+        if left > 0.0:
+            self._watchdog = asyncio.get_running_loop().call_later(left, self._watch)
+        else:
+            self.end(StreamEnded(self._why_dead()))
 
     def _decoded(self, events: list[SseEvent]) -> list[Update | Keepalive]:
         """The usable events, one by one; the last unusable one is kept to say why."""
@@ -382,10 +385,6 @@ class EventStream:
                 items.append(item)
         return items
 
-    def _dead(self) -> bool:
-        """True when no valid event came for ``dead_after_s`` of on-time loop."""
-        return self._alive.on_time_s() >= self.dead_after_s
-
     def _why_dead(self) -> str:
         if self._junk_bytes == 0:
             return f"event stream silent for {self.dead_after_s:g} s (no keepalive)"
@@ -395,15 +394,11 @@ class EventStream:
             f"for {self.dead_after_s:g} s{last}"
         )
 
-    @property
-    def mid_event(self) -> bool:
-        """True when the last chunk ended inside an event."""
-        return self._parser.pending
-
     def close(self) -> None:
         """Drop the connection (there is no polite way to end an SSE response)."""
-        self._deadline.close()
-        self._response.close()
+        self._watchdog.cancel()
+        if self._source is not None:
+            self._source.close()
 
 
 class Subscription:
@@ -424,12 +419,13 @@ class Subscription:
         self._created = False
         self._short_form = False
 
-    async def open(self) -> EventStream:
-        """Open a new event stream of this subscription."""
+    async def open(self, on_items: Items) -> EventStream:
+        """Open a new event stream of this subscription; its events go to ``on_items``."""
         events = self._client.paths.events
         if events is None or self._client.capabilities.subscribe is False:
             raise Unsupported("this data layer offers no subscriptions")
         dead_after = 2.5 * self.settings.keepalive_interval_ms / 1000.0
+        stream = EventStream(self._client, dead_after, on_items)
         try:
             if not self._short_form and not self._created:
                 await self._create(events)
@@ -438,20 +434,24 @@ class Subscription:
                     "nodes": ",".join(self.nodes),
                     "publishIntervalMs": str(self.settings.publish_interval_ms),
                 }
-                response = await self._client.open_stream(events, params=params)
+                await stream.connect(events, params)
             else:
                 try:
-                    response = await self._client.open_stream(f"{events}/{self.id}")
+                    await stream.connect(f"{events}/{self.id}")
                 except Unsupported:
                     # The server forgot the subscription (unused for a minute): make it again.
                     self._created = False
                     await self._create(events)
-                    response = await self._client.open_stream(f"{events}/{self.id}")
+                    await stream.connect(f"{events}/{self.id}")
         except Unsupported:
             self._client.capabilities.subscribe = False
+            stream.close()
+            raise
+        except BaseException:
+            stream.close()
             raise
         self._client.capabilities.subscribe = True
-        return EventStream(response, self._client, dead_after)
+        return stream
 
     async def _create(self, events: str) -> None:
         body = {"properties": self.settings.properties(self.id), "nodes": self.nodes}

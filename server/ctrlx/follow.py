@@ -23,17 +23,23 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import logging
-import math
 import random
 import time
-from collections.abc import AsyncGenerator, AsyncIterator
+from collections.abc import AsyncGenerator, AsyncIterator, Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 from ..lateness import Mark, lateness
 from ..text import plural
 from .client import DataLayerClient
-from .events import EventStream, Keepalive, Subscription, SubscriptionSettings, Update
+from .events import (
+    EventStream,
+    Items,
+    Keepalive,
+    Subscription,
+    SubscriptionSettings,
+    Update,
+)
 from .pacing import Pacer
 from .problem import AuthError, DataLayerError, ProblemError, Unsupported
 
@@ -93,15 +99,91 @@ def follow(
 ) -> AsyncGenerator[Sample, None]:
     """The samples of ``nodes``, about every ``period_s`` seconds, until cancelled.
 
-    ``keepalive_s`` is the subscription's keepalive interval; a stream silent
-    for 2.5 times as long counts as dead. A refused subscription or bulk
-    service is tried again every ``reprobe_s`` (default REPROBE_S). Raises
-    DataLayerError when the source is unusable (see the module docstring).
+    ``follow_into``'s samples, for code that iterates: a consumer that falls
+    behind gets the newest values (``received`` counts the samples they
+    stand for). Raises DataLayerError when the source is unusable.
     """
+    _check_mode(mode)
+    return _iterate(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe_s)
+
+
+async def follow_into(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    deliver: Callable[[Sample], None],
+    mode: Mode = "subscribe",
+    *,
+    keepalive_s: float = 1.0,
+    retry: RetryPolicy = RetryPolicy(),
+    reprobe_s: float | None = None,
+) -> None:
+    """Call ``deliver`` with the samples of ``nodes``, about every ``period_s`` s, until cancelled.
+
+    From a subscription, ``deliver`` is called as the bytes arrive, by the
+    event loop's reading of the socket, not by a task: a sample then costs
+    no task wake-up (see stream_wire). ``keepalive_s`` is the subscription's
+    keepalive interval; a stream silent for 2.5 times as long counts as dead.
+    A refused subscription or bulk service is tried again every ``reprobe_s``
+    (default REPROBE_S). Raises DataLayerError when the source is unusable
+    (see the module docstring), and whatever ``deliver`` raises.
+    """
+    _check_mode(mode)
+    reprobe = REPROBE_S if reprobe_s is None else reprobe_s
+    await _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe, deliver)
+
+
+def _check_mode(mode: str) -> None:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, not {mode!r}")
-    reprobe = REPROBE_S if reprobe_s is None else reprobe_s
-    return _follow(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe)
+
+
+async def _iterate(
+    client: DataLayerClient,
+    nodes: list[str],
+    period_s: float,
+    mode: Mode,
+    keepalive_s: float,
+    retry: RetryPolicy,
+    reprobe_s: float | None,
+) -> AsyncGenerator[Sample, None]:
+    newest: list[Sample] = []
+    arrived = asyncio.Event()
+
+    def keep(sample: Sample) -> None:
+        if newest:  # not taken yet: the newest values win, standing for both
+            received = newest[0].received + sample.received
+            newest[0] = dataclasses.replace(sample, received=received)
+        else:
+            newest.append(sample)
+        arrived.set()
+
+    following = asyncio.ensure_future(
+        follow_into(
+            client,
+            nodes,
+            period_s,
+            keep,
+            mode,
+            keepalive_s=keepalive_s,
+            retry=retry,
+            reprobe_s=reprobe_s,
+        )
+    )
+    try:
+        while True:
+            if not newest:
+                waiting = asyncio.ensure_future(arrived.wait())
+                await asyncio.wait((waiting, following), return_when=asyncio.FIRST_COMPLETED)
+                waiting.cancel()
+                if not newest:
+                    following.result()  # it ended: raises why
+                    raise AssertionError("follow_into returned")
+            arrived.clear()
+            yield newest.pop()
+    finally:
+        following.cancel()
+        await asyncio.gather(following, return_exceptions=True)
 
 
 def _samples_again(client: DataLayerClient) -> None:
@@ -131,7 +213,8 @@ async def _follow(
     keepalive_s: float,
     retry: RetryPolicy,
     reprobe_s: float,
-) -> AsyncGenerator[Sample, None]:
+    deliver: Callable[[Sample], None],
+) -> None:
     interruptions = _Interruptions(retry)
     # A firmware without the service (paths None) is no refusal: nothing to note or re-probe.
     events = None
@@ -140,22 +223,24 @@ async def _follow(
     bulk = None
     if mode != "get" and client.paths.bulk is not None:
         bulk = _Refusal(client, "bulk reads", "one GET per node instead", reprobe_s)
+
+    def streamed(sample: Sample) -> None:
+        if events is not None:
+            events.worked()
+        _samples_again(client)
+        deliver(sample)
+
     try:
         while True:
             if events is not None and events.due():
                 events.retry()
                 try:
-                    async for sample in _subscribe(
-                        client, nodes, period_s, keepalive_s, interruptions
-                    ):
-                        events.worked()
-                        _samples_again(client)
-                        yield sample
+                    await _subscribe(client, nodes, period_s, keepalive_s, interruptions, streamed)
                 except Unsupported as exc:
                     events.refused(exc)
             async for sample in _poll(client, nodes, period_s, bulk, events, interruptions):
                 _samples_again(client)
-                yield sample
+                deliver(sample)
     except DataLayerError as exc:
         client.failed_starts += 1
         raise client.redact.error(exc) from None
@@ -293,7 +378,9 @@ async def _subscribe(
     period_s: float,
     keepalive_s: float,
     interruptions: _Interruptions,
-) -> AsyncIterator[Sample]:
+    deliver: Callable[[Sample], None],
+) -> None:
+    """Streams samples to ``deliver`` until the source fails for good (or is refused)."""
     settings = SubscriptionSettings(
         publish_interval_ms=max(1, round(period_s * 1000)),
         keepalive_interval_ms=max(1, round(keepalive_s * 1000)),
@@ -301,6 +388,23 @@ async def _subscribe(
     )
     subscription = Subscription(client, nodes, settings)
     latest = _Latest(nodes, grace_s=keepalive_s)
+    unusable: list[DataLayerError] = []
+    """Set when every node failed: the source as a whole is unusable, no passing interruption."""
+
+    def on_items(items: Sequence[Update | Keepalive], mid_event: bool) -> None:
+        for item in items:
+            latest.add(item)
+        if mid_event:
+            return  # the rest of this publish cycle is in the next chunk
+        try:
+            sample = latest.take()
+        except DataLayerError as exc:
+            unusable.append(exc)
+            raise
+        if sample is not None:
+            interruptions.succeeded()
+            deliver(sample)
+
     stream: EventStream | None = None
     log.log(
         _news(client),
@@ -313,31 +417,25 @@ async def _subscribe(
         while True:
             try:
                 if stream is None:
-                    stream = await subscription.open()
+                    stream = await subscription.open(on_items)
                 # Planned on our monotonic clock from the token's lifetime, never its exp.
                 wait = client.tokens.seconds_to_renewal()
                 if wait is not None and wait <= 0.0:
-                    stream = await _hand_over(client, subscription, stream)
+                    stream = await _hand_over(client, subscription, stream, on_items)
                     continue
-                items = await stream.next_items(math.inf if wait is None else wait)
-                if items is None:
-                    continue
-                for item in items:
-                    latest.add(item)
+                done, _ = await asyncio.wait((stream.ended,), timeout=wait)
+                if not done:
+                    continue  # time to renew the token
+                raise stream.ended.result()
             except Unsupported:
                 raise
             except DataLayerError as exc:
                 if stream is not None:
                     stream.close()
                 stream = None
+                if unusable:
+                    raise unusable[0] from None
                 await interruptions.failed(exc)
-                continue
-            if stream.mid_event:
-                continue  # the rest of this publish cycle is in the next chunk
-            sample = latest.take()
-            if sample is not None:
-                interruptions.succeeded()
-                yield sample
     finally:
         if stream is not None:
             stream.close()
@@ -345,7 +443,10 @@ async def _subscribe(
 
 
 async def _hand_over(
-    client: DataLayerClient, subscription: Subscription, old: EventStream
+    client: DataLayerClient,
+    subscription: Subscription,
+    old: EventStream,
+    on_items: Items,
 ) -> EventStream:
     """Make before break: open a stream with a fresh token, then drop the old one.
 
@@ -354,7 +455,7 @@ async def _hand_over(
     """
     await client.tokens.current()
     try:
-        fresh = await subscription.open()
+        fresh = await subscription.open(on_items)
     finally:
         old.close()
     return fresh

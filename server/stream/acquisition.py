@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cell import Robot
-from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow
+from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow_into
 from .batches import Job, Outcome, Pending, sample_batch
 from .buckets import Buckets
 from .frames import encode_binary, encode_json
@@ -104,29 +104,35 @@ class Acquisition:
     async def _follow_forever(self) -> None:
         retry = self._settings.retry_min_s
         while True:
+            seq = self._seq
             try:
-                samples = (
-                    self._samples()
-                    if self._samples is not None
-                    else follow(
-                        self._client,
-                        self._nodes,
-                        self._settings.period_s,
-                        self._settings.mode,
-                        keepalive_s=self._settings.keepalive_s,
-                    )
-                )
-                async with contextlib.aclosing(samples):
-                    async for sample in samples:
-                        retry = self._settings.retry_min_s
-                        self._on_sample(sample)
+                await self._follow()
             except DataLayerError as exc:
                 self._report_error(str(exc))
             except Exception as exc:  # a bug must not end the only stream of this source
                 log.exception("data source %s: unexpected error", self.health.name)
                 self._report_error(f"internal error: {exc!r}")
+            if self._seq != seq:  # it worked for a while: a new failure starts the waits over
+                retry = self._settings.retry_min_s
             await asyncio.sleep(retry)
             retry = min(retry * 2.0, self._settings.retry_max_s)
+
+    async def _follow(self) -> None:
+        """Process the source's samples until it fails."""
+        if self._samples is not None:
+            async with contextlib.aclosing(self._samples()) as samples:
+                async for sample in samples:
+                    self._on_sample(sample)
+            return
+        # Samples from a subscription are processed as their bytes arrive, without a task.
+        await follow_into(
+            self._client,
+            self._nodes,
+            self._settings.period_s,
+            self._on_sample,
+            self._settings.mode,
+            keepalive_s=self._settings.keepalive_s,
+        )
 
     async def _watch_state(self) -> None:
         """Publish status when the derived state changes (e.g. stale) and once a second."""
