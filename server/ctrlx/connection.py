@@ -28,13 +28,18 @@ def connection_error(base_url: str, exc: aiohttp.ClientError) -> DataLayerError:
             f"cannot reach {base_url}: it closed the connection without an answer"
         )
     if isinstance(exc, aiohttp.ClientPayloadError):
-        return DataLayerError(f"the connection to {base_url} broke in the middle of an answer")
+        return cut_short(base_url)
     if isinstance(exc, aiohttp.ClientOSError):
         return os_error(base_url, exc)
     if isinstance(exc, aiohttp.ClientResponseError):
         # aiohttp's text for a malformed answer quotes the device's bytes: name the kind only.
         return DataLayerError(f"{base_url} sent an answer that is not valid HTTP")
     return DataLayerError(f"request to {base_url} failed: {exc or _kind(exc)}")
+
+
+def cut_short(base_url: str) -> DataLayerError:
+    """The error for an answer whose connection closed before its body was complete."""
+    return DataLayerError(f"the connection to {base_url} broke in the middle of an answer")
 
 
 def os_error(base_url: str, exc: OSError) -> DataLayerError:

@@ -36,12 +36,13 @@ from .events import (
     EventStream,
     Items,
     Keepalive,
+    PlainUpdates,
     Subscription,
     SubscriptionSettings,
     Update,
 )
 from .pacing import Pacer
-from .problem import AuthError, DataLayerError, ProblemError, Unsupported
+from .problem import AuthError, DataLayerError, ProblemError, StreamEnded, Unsupported
 
 log = logging.getLogger(__name__)
 
@@ -174,8 +175,10 @@ async def _iterate(
         while True:
             if not newest:
                 waiting = asyncio.ensure_future(arrived.wait())
-                await asyncio.wait((waiting, following), return_when=asyncio.FIRST_COMPLETED)
-                waiting.cancel()
+                try:
+                    await asyncio.wait((waiting, following), return_when=asyncio.FIRST_COMPLETED)
+                finally:
+                    waiting.cancel()
                 if not newest:
                     following.result()  # it ended: raises why
                     raise AssertionError("follow_into returned")
@@ -343,17 +346,33 @@ class _Latest:
         self._cycles = 0
         """Publish cycles (distinct timestamps) gathered since the last sample."""
 
-    def add(self, item: Update | Keepalive) -> None:
-        if isinstance(item, Update):
-            if item.node not in self._wanted:
-                return
-            self._values[item.node] = item.value
-        if item.t_source is not None:
-            # The events of one publish cycle share its timestamp: a new one is a new cycle.
-            self._cycles += item.t_source != self._t
-            self._t = item.t_source if self._t is None else max(self._t, item.t_source)
-        # A keepalive says "nothing changed until t": a fresh sample of the same values.
-        self._changed = True
+    def add(self, item: Update | Keepalive | PlainUpdates) -> None:
+        if isinstance(item, PlainUpdates):
+            self._gather(item.nodes, item.t_sources, item.values)
+        elif isinstance(item, Update):
+            self._gather((item.node,), (item.t_source,), (item.value,))
+        else:  # a keepalive says "nothing changed until t": a fresh sample of the same values
+            self._gather((), (item.t_source,), ())
+
+    def _gather(
+        self,
+        nodes: Sequence[str],
+        t_sources: Sequence[float | None],
+        values: Sequence[float | Exception],
+    ) -> None:
+        """Updates in arrival order (no nodes: a keepalive's time alone)."""
+        wanted, t, cycles = self._wanted, self._t, self._cycles
+        for k, t_source in enumerate(t_sources):
+            if nodes:
+                if nodes[k] not in wanted:
+                    continue
+                self._values[nodes[k]] = values[k]
+            if t_source is not None:
+                # The events of one publish cycle share its timestamp: a new one is a new cycle.
+                cycles += t_source != t
+                t = t_source if t is None or t_source > t else t
+            self._changed = True
+        self._t, self._cycles = t, cycles
 
     def take(self) -> Sample | None:
         """A sample if anything changed and every node was heard from (or waiting is over)."""
@@ -389,9 +408,10 @@ async def _subscribe(
     subscription = Subscription(client, nodes, settings)
     latest = _Latest(nodes, grace_s=keepalive_s)
     unusable: list[DataLayerError] = []
-    """Set when every node failed: the source as a whole is unusable, no passing interruption."""
+    """Why every node failed, if they did: then the source as a whole is unusable, which is
+    no passing interruption of its stream."""
 
-    def on_items(items: Sequence[Update | Keepalive], mid_event: bool) -> None:
+    def on_items(items: Sequence[Update | Keepalive | PlainUpdates], mid_event: bool) -> None:
         for item in items:
             latest.add(item)
         if mid_event:
@@ -399,9 +419,10 @@ async def _subscribe(
         try:
             sample = latest.take()
         except DataLayerError as exc:
-            unusable.append(exc)
+            unusable[:] = [exc]
             raise
         if sample is not None:
+            unusable.clear()
             interruptions.succeeded()
             deliver(sample)
 
@@ -433,8 +454,8 @@ async def _subscribe(
                 if stream is not None:
                     stream.close()
                 stream = None
-                if unusable:
-                    raise unusable[0] from None
+                if unusable and exc is unusable[0]:
+                    raise exc from None
                 await interruptions.failed(exc)
     finally:
         if stream is not None:
@@ -458,6 +479,11 @@ async def _hand_over(
         fresh = await subscription.open(on_items)
     finally:
         old.close()
+    if old.ended.done():  # it ended while the new one opened: a broken stream is no news,
+        why = old.ended.result()  # but a failure of the source or a bug is
+        if not isinstance(why, StreamEnded):
+            fresh.close()
+            raise why
     return fresh
 
 

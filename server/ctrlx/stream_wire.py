@@ -27,7 +27,7 @@ from yarl import URL
 
 from ..lateness import PatientTimeout
 from .client import DataLayerClient
-from .connection import connection_error, os_error
+from .connection import connection_error, cut_short, os_error
 from .problem import StreamEnded
 
 Feed = Callable[[bytes], None]
@@ -84,10 +84,9 @@ async def _open_direct(
     ).encode("latin-1")
     client.traffic.requests += 1
     connection = _Connection(request, client, feed, end)
-    transport: asyncio.Transport | None = None
     try:
         async with PatientTimeout(client.timeout_s):
-            transport, _ = await asyncio.get_running_loop().create_connection(
+            await asyncio.get_running_loop().create_connection(
                 lambda: connection,
                 url.raw_host,
                 url.port,
@@ -96,8 +95,7 @@ async def _open_direct(
             )
             is_stream = await connection.head
     except BaseException as exc:
-        if transport is not None:
-            transport.abort()
+        connection.close()  # and never calls ``end``: the caller learns it from the raise
         if isinstance(exc, TimeoutError):  # before OSError, of which it is one
             raise client.no_answer("GET", path) from None
         if isinstance(exc, OSError):  # refused, unreachable, TLS: the client's attempt says why
@@ -179,6 +177,9 @@ class _Connection(asyncio.Protocol):
         if self._body is None:
             self._refuse()
             return None
+        if self.head.done():  # the opener gave up meanwhile
+            self._ended = True
+            return None
         self.head.set_result(True)
         return buffer[cut[1] :]
 
@@ -191,12 +192,16 @@ class _Connection(asyncio.Protocol):
         self._loop.call_soon(self._lost, exc)  # after the bytes read before it are taken
 
     def _lost(self, exc: Exception | None) -> None:
+        if self._ended:
+            return
         if not self.head.done():
             self.head.set_exception(exc or ConnectionResetError("closed before answering"))
             self.head.exception()  # retrieved: the opener may have given up on it already
             return
-        if exc is None:
+        if exc is None and self._body is not None and self._body.ends_with_connection:
             self._finish(StreamEnded("the server closed the event stream"))
+        elif exc is None:  # in the middle of a chunk or of the announced length
+            self._finish(StreamEnded(f"event stream broke: {cut_short(self._client.base_url)}"))
         else:
             reason = os_error(self._client.base_url, exc) if isinstance(exc, OSError) else exc
             self._finish(StreamEnded(f"event stream broke: {reason}"))
@@ -232,7 +237,9 @@ def _body_of(head: bytes) -> _Chunked | _Counted | None:
         return None
     headers: dict[str, str] = {}
     for line in lines[1:]:
-        name, _, value = line.partition(":")
+        name, colon, value = line.partition(":")
+        if not colon or name[:1] in (" ", "\t"):
+            return None  # folded or broken: the client's parser judges it
         key = name.strip().lower()
         headers[key] = f"{headers[key]}, {value.strip()}" if key in headers else value.strip()
     kind = headers.get("content-type", "").split(";", 1)[0].strip().lower()
@@ -245,7 +252,7 @@ def _body_of(head: bytes) -> _Chunked | _Counted | None:
     length = headers.get("content-length")
     if length is None:
         return _Counted(None)  # the body ends when the connection does
-    return _Counted(int(length)) if length.isdigit() else None
+    return _Counted(int(length)) if length.isascii() and length.isdigit() else None
 
 
 class _Counted:
@@ -253,6 +260,7 @@ class _Counted:
 
     def __init__(self, length: int | None) -> None:
         self._left = length
+        self.ends_with_connection = length is None
         self.done = length == 0
 
     def take(self, data: bytes) -> bytes:
@@ -267,16 +275,19 @@ class _Counted:
 class _Chunked:
     """Takes the chunked transfer coding off, whatever the network's cuts (RFC 9112, 7.1)."""
 
+    ends_with_connection = False
+
     def __init__(self) -> None:
         self._left = 0
         """Bytes of the current chunk still to come."""
-        self._crlf = 0
-        """Bytes of the line end after a chunk's data still to skip."""
+        self._line_end = False
+        """True after a chunk's data, until the line end that must follow it."""
+        self._cr = False
         self._line = b""
         self.done = False
 
     def take(self, data: bytes) -> bytes:
-        """The payload in ``data``; raises StreamEnded for a malformed size line."""
+        """The payload in ``data``; raises StreamEnded where the framing is broken."""
         parts: list[bytes] = []
         pos, size = 0, len(data)
         while pos < size and not self.done:
@@ -285,11 +296,15 @@ class _Chunked:
                 parts.append(piece)
                 pos += len(piece)
                 self._left -= len(piece)
-                self._crlf = 0 if self._left else 2
-            elif self._crlf:
-                skip = min(self._crlf, size - pos)
-                pos += skip
-                self._crlf -= skip
+                self._line_end = not self._left
+            elif self._line_end:  # CRLF (or a bare LF), nothing else: else sizes went wrong
+                if data[pos] == 0x0D and not self._cr:
+                    self._cr = True
+                elif data[pos] == 0x0A:
+                    self._cr = self._line_end = False
+                else:
+                    raise _malformed()
+                pos += 1
             else:
                 pos = self._size_line(data, pos)
         return parts[0] if len(parts) == 1 else b"".join(parts)
@@ -299,17 +314,21 @@ class _Chunked:
         cut = data.find(b"\n", pos)
         line = self._line + (data[pos:] if cut < 0 else data[pos:cut])
         if len(line) > MAX_SIZE_LINE:
-            raise StreamEnded("event stream sent a malformed chunk size; dropped")
+            raise _malformed()
         if cut < 0:
             self._line = line
             return len(data)
         self._line = b""
         digits = line.split(b";", 1)[0].strip()
         if _HEX.fullmatch(digits) is None:
-            raise StreamEnded("event stream sent a malformed chunk size; dropped")
+            raise _malformed()
         self._left = int(digits, 16)
         self.done = self._left == 0  # the last chunk: trailers may follow; the stream is over
         return cut + 1
+
+
+def _malformed() -> StreamEnded:
+    return StreamEnded("event stream sent a malformed chunk (size or line end); dropped")
 
 
 class _Pump:

@@ -23,7 +23,14 @@ from server.ctrlx import (
     filetime_from_unix,
     unix_from_filetime,
 )
-from server.ctrlx.events import Keepalive, SseEvent, Update, decode_event, plain_updates
+from server.ctrlx.events import (
+    Keepalive,
+    PlainUpdates,
+    SseEvent,
+    Update,
+    decode_event,
+    plain_updates,
+)
 from server.ctrlx.problem import ProblemError, problem_for_result, problem_for_status
 from server.ctrlx.values import number_from_data, numbers_from_data, unit_from_data
 
@@ -82,6 +89,33 @@ def test_usual_events_read_as_the_line_rules_read_them(parts: list[bytes], cuts:
         events += parser.feed(stream[last:cut])
         last = cut
     assert events == reference
+
+
+@given(
+    st.lists(USUAL | OTHERWISE, max_size=10),
+    st.lists(st.integers(0, 4000), max_size=4),
+    st.booleans(),
+)
+def test_the_fast_path_for_update_events_reads_as_feed_reads_them(
+    parts: list[bytes], cuts: list[int], at_event_ends: bool
+) -> None:
+    """Chunk by chunk, ``usual_updates`` gives the data ``feed`` finds in whole update events,
+    or None and leaves the chunk to ``feed``; the last id carries on alike."""
+    stream = b"".join(parts)
+    bounds = [len(b"".join(parts[: k + 1])) for k in range(len(parts))] if at_event_ends else []
+    points = sorted({*(min(c, len(stream)) for c in cuts), *bounds, len(stream)})
+    reference, fast, last = SseParser(), SseParser(), 0
+    for point in points:
+        chunk, last = stream[last:point], point
+        expected = reference.feed(chunk)
+        datas = fast.usual_updates(chunk)
+        if datas is None:
+            assert fast.feed(chunk) == expected
+        else:
+            assert expected and all(e.event == "update" for e in expected)
+            assert datas == [e.data for e in expected]
+    tail = b"event: end\ndata: x\n\n"
+    assert fast.feed(tail) == reference.feed(tail)  # same last id, nothing pending
 
 
 def test_filetime_epochs() -> None:
@@ -234,9 +268,12 @@ EVENT = st.builds(
 def test_plain_updates_read_as_decode_event_reads_them(events: list[SseEvent]) -> None:
     """The fast path for publish cycles gives what the general one gives, or leaves it to it."""
     prefix = "/automation/api/v2/nodes/"
-    fast = plain_updates(events)
+    if any(e.event != "update" for e in events):
+        return  # only runs of updates are offered to the fast path
+    fast = plain_updates([e.data for e in events])
     if fast is not None:  # None: left to decode_event, event by event
-        assert fast == [decode_event(e, prefix) for e in events]
+        rows = [Update(*row) for row in zip(fast.nodes, fast.t_sources, fast.values, strict=True)]
+        assert rows == [decode_event(e, prefix) for e in events]
 
 
 def test_a_publish_cycle_of_float_updates_takes_the_fast_path() -> None:
@@ -246,9 +283,15 @@ def test_a_publish_cycle_of_float_updates_takes_the_fast_path() -> None:
         + b'data: {"node":"n%d","timestamp":%d,"type":"double","value":%d.5}\n\n' % (i, stamp, i)
         for i in range(7)
     )
-    events = SseParser().feed(cycle)
-    assert plain_updates(events) == [Update(f"n{i}", 1.7e9, i + 0.5) for i in range(7)]
-    assert plain_updates([*events, SseEvent("keepalive", None, "{}")]) is None
+    parser = SseParser()
+    datas = parser.usual_updates(cycle)
+    assert datas == [e.data for e in SseParser().feed(cycle)]
+    assert plain_updates(datas) == PlainUpdates(
+        [f"n{i}" for i in range(7)], [1.7e9] * 7, [i + 0.5 for i in range(7)]
+    )
+    assert plain_updates([*datas, '{"node":"n","timestamp":1,"type":"double","value":1}']) is None
+    # The last id counts for the events after the fast path, as if ``feed`` had read them.
+    assert parser.feed(b"data: x\n\n")[0].id == "6"
 
 
 def test_events_decode_to_updates_keepalives_and_node_errors() -> None:

@@ -60,10 +60,16 @@ def test_chunked_bodies_come_out_whole_whatever_the_cuts(
     assert body.done
 
 
-@pytest.mark.parametrize("size_line", [b"zz\r\n", b"1" * 2000 + b"\r\n", b"-5\r\n"])
-def test_a_malformed_chunk_size_ends_the_stream(size_line: bytes) -> None:
-    with pytest.raises(StreamEnded, match="malformed chunk size"):
-        _Chunked().take(b"3\r\nabc\r\n" + size_line)
+@pytest.mark.parametrize(
+    "after",
+    [b"zz\r\n", b"1" * 2000 + b"\r\n", b"-5\r\n", b"5\r\nhelloXY\r\n", b"2\r\nab\r\r\n"],
+    ids=["not-hex", "endless-size", "negative", "wrong-size", "two-CRs"],
+)
+def test_broken_chunk_framing_ends_the_stream(after: bytes) -> None:
+    body = _Chunked()
+    assert body.take(b"3\r\nabc\n") == b"abc"  # a bare LF after the data is all right
+    with pytest.raises(StreamEnded, match="malformed chunk"):
+        body.take(after)
 
 
 Answer = Callable[[int], list[bytes]]
@@ -197,10 +203,33 @@ async def test_a_refused_token_is_renewed_by_the_client_and_the_stream_read() ->
 
 
 async def test_an_answer_that_never_comes_is_a_timeout_naming_the_device() -> None:
+    ends: list[Exception] = []
     async with device(lambda _: [b"HTTP/1.1 200 OK\r\n", STALL]) as (_, url):
         async with client(url, timeout_s=0.3) as c:
             with pytest.raises(DataLayerError, match=r"no answer from .* within 0.3 s"):
-                await open_stream_into(c, PATH, None, print, print)
+                await open_stream_into(c, PATH, None, print, ends.append)
+            await asyncio.sleep(0.1)  # the connection's close has come and gone
+    assert ends == []  # the open's error says it all: ``end`` is for streams that began
+
+
+async def test_a_stream_cut_in_the_middle_of_a_chunk_says_so() -> None:
+    answer = [head(SSE, b"Transfer-Encoding: chunked"), chunked(EVENTS, [64])[:100]]
+    async with device(lambda _: answer) as (_, url):
+        data, why, _ = await read_all(url)
+    assert EVENTS.startswith(data) and data
+    assert "event stream broke" in str(why) and "in the middle of an answer" in str(why)
+
+
+async def test_a_slow_device_is_not_silent_while_the_stream_opens() -> None:
+    """Login, the subscription and the GET take 0.9 s each: longer together than the 2.5 s
+    of silence after which an open stream counts as dead."""
+    async with running() as mock:
+        mock.state.faults.latency_s = 0.9
+        async with client(mock.url) as c:
+            samples = follow(c, IIWA, 0.05, keepalive_s=1.0)
+            first = await asyncio.wait_for(anext(samples), 20)
+            await samples.aclose()
+    assert len(first.values) == 7
 
 
 async def test_https_streams_are_read_without_a_task(tmp_path: Path) -> None:
