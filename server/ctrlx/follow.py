@@ -25,7 +25,7 @@ import dataclasses
 import logging
 import random
 import time
-from collections.abc import AsyncGenerator, AsyncIterator, Callable, Sequence
+from collections.abc import AsyncGenerator, AsyncIterator, Callable, Coroutine, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -105,7 +105,19 @@ def follow(
     stand for). Raises DataLayerError when the source is unusable.
     """
     _check_mode(mode)
-    return _iterate(client, list(nodes), period_s, mode, keepalive_s, retry, reprobe_s)
+    nodes = list(nodes)
+    return _iterate(
+        lambda deliver: follow_into(
+            client,
+            nodes,
+            period_s,
+            deliver,
+            mode,
+            keepalive_s=keepalive_s,
+            retry=retry,
+            reprobe_s=reprobe_s,
+        )
+    )
 
 
 async def follow_into(
@@ -140,14 +152,9 @@ def _check_mode(mode: str) -> None:
 
 
 async def _iterate(
-    client: DataLayerClient,
-    nodes: list[str],
-    period_s: float,
-    mode: Mode,
-    keepalive_s: float,
-    retry: RetryPolicy,
-    reprobe_s: float | None,
+    start: Callable[[Callable[[Sample], None]], Coroutine[None, None, None]],
 ) -> AsyncGenerator[Sample, None]:
+    """The samples ``start(deliver)`` delivers, the newest if several came since the last."""
     newest: list[Sample] = []
     arrived = asyncio.Event()
 
@@ -159,18 +166,7 @@ async def _iterate(
             newest.append(sample)
         arrived.set()
 
-    following = asyncio.ensure_future(
-        follow_into(
-            client,
-            nodes,
-            period_s,
-            keep,
-            mode,
-            keepalive_s=keepalive_s,
-            retry=retry,
-            reprobe_s=reprobe_s,
-        )
-    )
+    following = asyncio.ensure_future(start(keep))
     try:
         while True:
             if not newest:
