@@ -25,13 +25,7 @@ from .problem import (
     problem_for_status,
 )
 from .stream_wire import ByteSource, open_stream_into
-from .timestamps import (
-    FILETIME_UNIX_EPOCH,
-    FIRST_FILETIME_S,
-    TICKS_PER_S,
-    filetime_from_unix,
-    parse_filetime,
-)
+from .timestamps import FIRST_FILETIME_S, parse_filetime, unix_from_filetime
 from .values import SCALAR_TYPES, number_from_data
 
 log = logging.getLogger(__name__)
@@ -338,14 +332,9 @@ def plain_updates(datas: Sequence[str]) -> PlainUpdates | None:
             return None
         nodes.append(node)
         values.append(value)
-        t_sources.append(
-            (stamp - FILETIME_UNIX_EPOCH) / TICKS_PER_S if stamp >= _FIRST_FILETIME else None
-        )
+        t_source = unix_from_filetime(stamp)
+        t_sources.append(t_source if t_source >= FIRST_FILETIME_S else None)
     return PlainUpdates(nodes, t_sources, values)
-
-
-_FIRST_FILETIME = filetime_from_unix(FIRST_FILETIME_S)
-"""FIRST_FILETIME_S as a FILETIME: compared before converting (what unix_from_filetime does)."""
 
 
 def _node_of_instance(problem: ProblemError, nodes_prefix: str) -> str | None:
