@@ -260,6 +260,10 @@ class Stage {
 	 */
 	setInsets( left, right, bottom = 0 ) {
 
+		const now = this.insets;
+		// Unchanged (panels re-report on every window resize): the window's own resize
+		// listener measures the view once.
+		if ( now.left === left && now.right === right && now.bottom === bottom ) return;
 		this.insets = { left, right, bottom };
 		this.resize();
 
