@@ -502,12 +502,10 @@ class Subscription:
                     self._created = False
                     await self._create(events)
                     await stream.connect(f"{events}/{self.id}")
-        except Unsupported:
-            self._client.capabilities.subscribe = False
+        except BaseException as exc:
             stream.close()
-            raise
-        except BaseException:
-            stream.close()
+            if isinstance(exc, Unsupported):
+                self._client.capabilities.subscribe = False
             raise
         self._client.capabilities.subscribe = True
         return stream
