@@ -39,6 +39,8 @@ MAX_HEAD_BYTES = 64 * 1024
 MAX_SIZE_LINE = 1024
 """A chunk-size line (hex size, maybe extensions) is a few bytes."""
 _HEX = re.compile(rb"[0-9A-Fa-f]{1,15}")
+_CHUNK_HEAD = re.compile(rb"([0-9A-Fa-f]{1,15})\r\n")
+"""A chunk's size line, as servers write it (no extensions, CRLF)."""
 
 
 class ByteSource(Protocol):
@@ -288,6 +290,15 @@ class _Chunked:
 
     def take(self, data: bytes) -> bytes:
         """The payload in ``data``; raises StreamEnded where the framing is broken."""
+        if not (self._left or self._line_end or self._line):
+            # What a device sends per publish cycle, read at once: one whole chunk, taken off
+            # in one match (the general way below costs three times as much).
+            head = _CHUNK_HEAD.match(data)
+            if head is not None:
+                start = head.end()
+                end = start + int(head[1], 16)
+                if end > start and len(data) == end + 2 and data.endswith(b"\r\n"):
+                    return data[start:end]
         parts: list[bytes] = []
         pos, size = 0, len(data)
         while pos < size and not self.done:
