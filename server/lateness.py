@@ -14,11 +14,14 @@ later it woke; it starts on first use. /metrics exports the same measure.
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 import weakref
 from collections.abc import Callable
 from types import TracebackType
 from typing import NamedTuple
+
+log = logging.getLogger(__name__)
 
 PERIOD_S = 0.1
 
@@ -79,8 +82,11 @@ class Lateness:
             now = time.monotonic()
             late = max(0.0, now - self._due)
             self.total_s, self.newest_s, self._due = self.total_s + late, late, None
-            for listener in self._listeners:
-                listener(late)
+            for listener in tuple(self._listeners):  # a listener may unlisten meanwhile
+                try:
+                    listener(late)
+                except Exception:  # one listener's bug must not stop the measure for all
+                    log.exception("a listener of the loop's lateness failed")
 
 
 _OF_LOOP: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, Lateness] = (

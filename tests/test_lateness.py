@@ -114,3 +114,25 @@ def test_a_replica_passes_on_what_its_workers_counted() -> None:
     health.overloaded = "overloaded: 3 of 12 samples processed, 12 frames/s per robot"
     summary = load_summary([health, SourceHealth("c1", "http://127.0.0.1:2")])
     assert summary["overloaded"] == f"c0: {health.overloaded}"
+
+
+async def test_a_failing_listener_stops_neither_the_ticker_nor_the_others() -> None:
+    """Every source's state check listens to one ticker: one's bug must not silence the rest."""
+    heard: list[float] = []
+
+    def broken(_late_s: float) -> None:
+        raise RuntimeError("a bug in one listener")
+
+    def leaving(_late_s: float) -> None:
+        lateness().unlisten(leaving)  # while the ticker goes through its listeners
+
+    clock = lateness()
+    for listener in (broken, leaving, heard.append):
+        clock.listen(listener)
+    try:
+        await asyncio.sleep(0.35)
+    finally:
+        clock.unlisten(broken)
+        clock.unlisten(heard.append)
+    assert len(heard) >= 2  # every tick reached it, the broken listener's included
+    assert leaving not in clock._listeners

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..cell import Robot
 from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow_into
+from ..lateness import lateness
 from .batches import Job, Outcome, Pending, sample_batch
 from .buckets import Buckets
 from .frames import encode_binary, encode_json
@@ -29,8 +30,6 @@ log = logging.getLogger(__name__)
 
 STATUS_EVERY_S = 1.0
 """Status is republished this often, so pages show a live sample age."""
-STATE_CHECK_S = 0.1
-"""How often a source is checked for turning stale between samples."""
 KINEMATICS_BUCKETS_S = (1e-5, 2e-5, 5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2)
 
 
@@ -95,11 +94,14 @@ class Acquisition:
 
     async def run(self) -> None:
         """Follow the source forever; errors are reported and retried, never raised."""
-        watcher = asyncio.create_task(self._watch_state(), name=f"status:{self.health.name}")
+        # The loop's lateness ticker (10 Hz) checks the state: one task wakes for every
+        # source of the process, not one per source.
+        ticker = lateness()
+        ticker.listen(self._check_state)
         try:
             await self._follow_forever()
         finally:
-            watcher.cancel()
+            ticker.unlisten(self._check_state)
 
     async def _follow_forever(self) -> None:
         retry = self._settings.retry_min_s
@@ -134,21 +136,19 @@ class Acquisition:
             keepalive_s=self._settings.keepalive_s,
         )
 
-    async def _watch_state(self) -> None:
+    def _check_state(self, _late_s: float) -> None:
         """Publish status when the derived state changes (e.g. stale) and once a second."""
-        while True:
-            await asyncio.sleep(STATE_CHECK_S)
-            load_changed = self.health.roll_window()
-            if load_changed:
-                news = self.health.overloaded or "all samples processed again"
-                level = logging.WARNING if self.health.overloaded else logging.INFO
-                log.log(level, "data source %s: %s", self.health.name, news)
-            state = self.health.current_state()
-            due = time.monotonic() - self._status_sent >= STATUS_EVERY_S
-            if load_changed or state != self._state_sent or due:
-                if state == "stale" and self._state_sent != "stale":
-                    log.warning("data source %s: %s", self.health.name, self.health.status().error)
-                self.publish_status()
+        load_changed = self.health.roll_window()
+        if load_changed:
+            news = self.health.overloaded or "all samples processed again"
+            level = logging.WARNING if self.health.overloaded else logging.INFO
+            log.log(level, "data source %s: %s", self.health.name, news)
+        state = self.health.current_state()
+        due = time.monotonic() - self._status_sent >= STATUS_EVERY_S
+        if load_changed or state != self._state_sent or due:
+            if state == "stale" and self._state_sent != "stale":
+                log.warning("data source %s: %s", self.health.name, self.health.status().error)
+            self.publish_status()
 
     def _on_sample(self, sample: Sample) -> None:
         self._seq += 1
