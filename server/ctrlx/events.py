@@ -99,8 +99,8 @@ class SseParser:
         if self.pending or not chunk.endswith(b"\n\n") or b"\r" in chunk:
             return None
         text = chunk.decode("utf-8", "replace")
-        # Event by event, in one pass: a match of the whole run, then a search for its data
-        # lines, read every byte twice and cost twice as much.
+        # A match per event reads each byte once. Matching the whole run, then searching it
+        # for the data lines, read each byte twice and cost twice as much.
         datas, last_id, pos, usual = [], None, 0, _USUAL_UPDATE.match
         while pos < len(text):
             event = usual(text, pos)

@@ -50,7 +50,7 @@ Mode = Literal["subscribe", "poll", "get"]
 MODES: tuple[Mode, ...] = ("subscribe", "poll", "get")
 
 
-@dataclass(slots=True)  # not frozen: made per sample, and frozen init costs 2.5x
+@dataclass(slots=True)  # not frozen: made per sample; a frozen init costs 1.5 µs more
 class Sample:
     """Values of the followed nodes at one instant, in data-layer units.
 

@@ -33,7 +33,7 @@ Outcome = tuple[RobotFrame, Exception | None]
 """A robot's frame, and the bug that left it without poses (None: it computed)."""
 
 
-@dataclass(slots=True)  # not frozen: made per sample, and frozen init costs 2.5x
+@dataclass(slots=True)  # not frozen: made per sample; a frozen init costs 1.5 µs more
 class Pending:
     """One source's sample: its robots' jobs, and what to do with their frames."""
 

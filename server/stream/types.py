@@ -34,7 +34,7 @@ class NoTap:
         """Ignore the state."""
 
 
-@dataclass(slots=True)  # not frozen: made per robot and sample, and frozen init costs 2.5x
+@dataclass(slots=True)  # not frozen: made per robot and sample; a frozen init costs 1.5 µs more
 class RobotSample:
     """One read of a robot's joints, in data-layer units, or why it failed."""
 
