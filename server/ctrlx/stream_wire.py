@@ -290,17 +290,8 @@ class _Chunked:
 
     def take(self, data: bytes) -> bytes:
         """The payload in ``data``; raises StreamEnded where the framing is broken."""
-        if not (self._left or self._line_end or self._line):
-            # What a device sends per publish cycle, read at once: one whole chunk, taken off
-            # in one match (the general way below costs three times as much).
-            head = _CHUNK_HEAD.match(data)
-            if head is not None:
-                start = head.end()
-                end = start + int(head[1], 16)
-                if end > start and len(data) == end + 2 and data.endswith(b"\r\n"):
-                    return data[start:end]
         parts: list[bytes] = []
-        pos, size = 0, len(data)
+        pos, size = self._whole_chunks(data, parts), len(data)
         while pos < size and not self.done:
             if self._left:
                 piece = data[pos : pos + self._left]
@@ -319,6 +310,24 @@ class _Chunked:
             else:
                 pos = self._size_line(data, pos)
         return parts[0] if len(parts) == 1 else b"".join(parts)
+
+    def _whole_chunks(self, data: bytes, parts: list[bytes]) -> int:
+        """Takes off the whole chunks ``data`` begins with, one match each; where the rest begins.
+
+        A device sends a chunk per publish cycle, and a read holds one or a few
+        of them: the byte-wise way (``take``) costs three times as much.
+        """
+        pos = 0
+        if self._left or self._line_end or self._line:
+            return pos
+        while (head := _CHUNK_HEAD.match(data, pos)) is not None:
+            start = head.end()
+            end = start + int(head[1], 16)
+            if end == start or data[end : end + 2] != b"\r\n":
+                break  # the last chunk, or one cut short: read byte-wise
+            parts.append(data[start:end])
+            pos = end + 2
+        return pos
 
     def _size_line(self, data: bytes, pos: int) -> int:
         """Reads a chunk-size line from ``pos``; where the data after it begins."""
