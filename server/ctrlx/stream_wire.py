@@ -5,9 +5,8 @@ every network chunk costs its HTTP parser, a stream reader, a future and a
 task wake-up, and a chunk of an event stream is one sample of one robot.
 Following 100 controllers that way cost about 120 µs of CPU per sample,
 this way (with plain cycles decoded in one pass) 86 (bench/sse_read.py).
-Here the event loop calls ``data_received``, which takes the chunked framing
-off and calls ``feed`` (or, while the loop runs late, leaves that to the
-loop's queue of ready callbacks, once per turn): no task runs.
+Here the event loop calls ``data_received``, and the ready queue then takes
+the chunked framing off and calls ``feed``: no task runs.
 
 Only a working stream is read this way. Any other outcome of the GET (an
 error status, a token the device refused, trouble connecting or with TLS, a
@@ -26,7 +25,7 @@ from typing import Protocol, cast
 import aiohttp
 from yarl import URL
 
-from ..lateness import PatientTimeout, lateness
+from ..lateness import PatientTimeout
 from .client import DataLayerClient
 from .connection import connection_error, cut_short, os_error
 from .problem import StreamEnded
@@ -37,8 +36,6 @@ End = Callable[[Exception], None]
 """Takes why the stream ended (called once at most, never after ``close``)."""
 
 MAX_HEAD_BYTES = 64 * 1024
-BEHIND_S = 0.005
-"""Our loop's lateness (its newest tick) from which reads are served once per turn."""
 MAX_SIZE_LINE = 1024
 """A chunk-size line (hex size, maybe extensions) is a few bytes."""
 _HEX = re.compile(rb"[0-9A-Fa-f]{1,15}")
@@ -122,7 +119,6 @@ class _Connection(asyncio.Protocol):
         self._feed = feed
         self._end = end
         self._loop = asyncio.get_running_loop()
-        self._clock = lateness()
         self.head: asyncio.Future[bool] = self._loop.create_future()
         """True once a 200 event stream began; False for any other answer."""
         self._head = b""
@@ -138,25 +134,18 @@ class _Connection(asyncio.Protocol):
         self._transport.write(self._request)
 
     def data_received(self, data: bytes) -> None:
-        # On time, a read is taken at once: a callback queued per read cost a fifth of
-        # reading a stream (bench/sse_read.py, 100 controllers: 100 -> 82 µs per chunk).
-        # While our loop runs late, reads wait in the loop's queue of ready callbacks
-        # instead: where each read did a sample's work, an overloaded uvloop read 16 equal
-        # streams 10 to 19 times a second, and robots must slow down evenly. The queue
-        # serves each stream once per turn.
-        if self._received is not None:
-            self._received.append(data)
-        elif self._clock.newest_s < BEHIND_S:
-            self._take(data)
-        else:
+        # Taken in the loop's queue of ready callbacks, not in the read: where each read did
+        # a sample's work, an overloaded uvloop read 16 equal streams 10 to 19 times a
+        # second, and robots must slow down evenly. The queue serves each once per turn.
+        if self._received is None:
             self._received = [data]
             self._loop.call_soon(self._take_received)
+        else:
+            self._received.append(data)
 
     def _take_received(self) -> None:
         received, self._received = self._received or [], None
-        self._take(received[0] if len(received) == 1 else b"".join(received))
-
-    def _take(self, data: bytes) -> None:
+        data = received[0] if len(received) == 1 else b"".join(received)
         if self._ended:
             return
         if self._body is None:

@@ -20,8 +20,8 @@ import uvloop
 from hypothesis import given
 from hypothesis import strategies as st
 
-from server.ctrlx import DataLayerError, StreamEnded, follow, stream_wire
-from server.ctrlx.stream_wire import _Chunked, open_stream_into
+from server.ctrlx import DataLayerError, StreamEnded, follow
+from server.ctrlx.stream_wire import _Chunked, _Connection, open_stream_into
 from tests.ctrlx.helpers import IIWA, client, collect, running
 
 EVENTS = b"".join(
@@ -171,16 +171,10 @@ SSE = b"Content-Type: text/event-stream; charset=utf-8"
     ids=["chunked", "content-length", "until-close", "bare-LF-head", "all-at-once"],
 )
 @pytest.mark.parametrize("run", [asyncio.run, uvloop.run], ids=["asyncio", "uvloop"])
-@pytest.mark.parametrize("behind_s", [stream_wire.BEHIND_S, -1.0], ids=["on-time", "late"])
 def test_every_framing_is_read_without_a_task(
-    framing: Callable[[], list[bytes]],
-    run: Callable[[Any], Any],
-    behind_s: float,
-    monkeypatch: pytest.MonkeyPatch,
+    framing: Callable[[], list[bytes]], run: Callable[[Any], Any]
 ) -> None:
-    """On both loops (the server runs on uvloop, whose transports differ from asyncio's), and
-    both ways: each read taken at once, or queued as while the loop runs late."""
-    monkeypatch.setattr(stream_wire, "BEHIND_S", behind_s)
+    """On both loops: the server runs on uvloop, whose transports differ from asyncio's."""
 
     async def main() -> tuple[bytes, Exception, bool, int]:
         async with device(lambda _: framing()) as (fake, url):
@@ -193,22 +187,18 @@ def test_every_framing_is_read_without_a_task(
     assert gets == 1
 
 
-@pytest.mark.parametrize("late", [False, True], ids=["on-time", "late"])
-async def test_reads_are_taken_at_once_on_time_and_once_per_turn_while_late(
-    late: bool, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """On time, each read is fed as it comes (cheapest); while our loop runs late, the reads
-    of one turn wait in the loop's queue and are fed together, once per stream and turn."""
-    monkeypatch.setattr(stream_wire, "BEHIND_S", -1.0 if late else stream_wire.BEHIND_S)
+async def test_the_reads_of_one_turn_are_fed_together_once() -> None:
+    """Reads wait in the loop's queue, and a stream's reads of one turn are fed at once: under
+    overload each stream is then served once per turn, and robots slow down evenly."""
     fed: list[bytes] = []
     async with client("http://127.0.0.1:9") as c:
-        connection = stream_wire._Connection(b"", c, fed.append, lambda why: None)
+        connection = _Connection(b"", c, fed.append, lambda why: None)
         reads = [head(SSE, b"Content-Length: %d" % len(EVENTS)), EVENTS[:100], EVENTS[100:]]
         for read in reads:
             connection.data_received(read)
-        assert fed == ([] if late else [EVENTS[:100], EVENTS[100:]])
+        assert fed == []
         await asyncio.sleep(0)  # the loop's next turn
-        assert fed == ([EVENTS] if late else [EVENTS[:100], EVENTS[100:]])
+        assert fed == [EVENTS]
 
 
 async def test_a_compressed_stream_is_read_by_the_client_instead() -> None:
