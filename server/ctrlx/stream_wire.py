@@ -318,7 +318,7 @@ class _Chunked:
         of them: the byte-wise way (``take``) costs three times as much.
         """
         pos = 0
-        if self._left or self._line_end or self._line:
+        if self.done or self._left or self._line_end or self._line:
             return pos
         while (head := _CHUNK_HEAD.match(data, pos)) is not None:
             start = head.end()

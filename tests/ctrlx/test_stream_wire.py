@@ -261,3 +261,12 @@ async def test_https_streams_are_read_without_a_task(tmp_path: Path) -> None:
             rest = await collect(samples, duration_s=0.3, at_least=5)
     assert len(first.values) == 7 and len(rest) >= 5
     assert not [name for name in tasks if name.startswith("event stream")]
+
+
+def test_nothing_is_taken_after_the_last_chunk() -> None:
+    """Bytes after the last chunk (trailers, or a broken server's chunk-like lines) are no
+    payload."""
+    body = _Chunked()
+    assert body.take(b"3\r\nabc\r\n0\r\n") == b"abc"
+    assert body.done
+    assert body.take(b"3\r\nxyz\r\n") == b""
