@@ -27,6 +27,7 @@ from redis.exceptions import RedisError
 
 from ..cell import Cell
 from ..history import History
+from ..loop_pacing import loop_pacer
 from ..runtime import MoveError, Runtime, SourceDefaults
 from ..runtime.reload import follow_cell_file
 from .broker import (
@@ -236,6 +237,7 @@ async def run_worker(
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
+    loop_pacer().start()
     tasks = [
         asyncio.create_task(worker.publisher.run(), name="publish"),
         asyncio.create_task(worker.follow_leases(), name="leases"),

@@ -20,6 +20,7 @@ from ..cluster import Replica, broker_settings
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
 from ..hosts import HostPolicy
+from ..loop_pacing import loop_pacer
 from ..paths import STATIC_DIR
 from ..recording import Recorder
 from ..runtime import Runtime
@@ -57,6 +58,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
         background = await _start_look_back(settings, runtime)
         app.state.loop_lag = LoopLag()
+        loop_pacer().start()
         background.append(asyncio.create_task(app.state.loop_lag.run(), name="loop lag"))
         app.state.clearance = None
         if settings.clearance_m > 0.0:

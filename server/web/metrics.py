@@ -13,6 +13,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, generate_l
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
 from prometheus_client.registry import Collector
 
+from ..loop_pacing import loop_pacer
 from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
 from ..stream import PROTOCOL_VERSIONS
@@ -144,6 +145,17 @@ class RuntimeCollector(Collector):
                 "The event loop's newest lateness",
                 value=self.loop_lag.newest,
             )
+        pacer = loop_pacer()
+        yield GaugeMetricFamily(
+            "linkview_event_loop_paced",
+            "1 while the event loop turns once per tick, flooded by wake-ups (loop_pacing.py)",
+            value=int(pacer.paced),
+        )
+        yield GaugeMetricFamily(
+            "linkview_event_loop_wakeups_per_second",
+            "How often the event loop's thread was woken, in its newest unpaced measure",
+            value=pacer.wakes_per_s,
+        )
 
 
 @router.get("/metrics", include_in_schema=False)
