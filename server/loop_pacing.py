@@ -2,17 +2,20 @@
 
 Each controller's event stream sends a chunk per publish cycle, each at its
 own moment. A loop that waits in epoll between them wakes once per chunk: at
-100 controllers of 50 samples/s about 2 000 times a second. A wake-up is a
-context switch and, on a virtual machine, an exit from idle; on the 2-core
-machine of docs/benchmarks.md it cost 40 to 110 µs of CPU (a thread sleeping
-2 ms in a loop), and pacing cut the server's CPU per robot-sample by about a
-sixth at 100 controllers (bench/plant.py, section "Pacing the event loop").
+100 controllers of 50 samples/s, 1 200 to 2 000 times a second. Each wake-up
+is a context switch and an exit from idle, 30 to 75 µs of CPU on the 2-core
+virtual machine of docs/benchmarks.md (bench/wakeups.py), and each chunk is
+then made into frames with the few others of its 2 ms batch. Paced, the loop
+wakes about 500 times a second, its batches hold twice the samples, and the
+server's CPU per robot-sample fell by 15 to 29 % at 50 to 150 controllers
+(bench/plant.py, section "Robots per core, before and after pacing").
 
 While the loop's thread is woken more than ``ON_WAKES_PER_S`` times a second,
 it is paced: a callback at the end of every turn keeps the loop from waiting in
 epoll and sleeps until the next tick (every ``TICK_S``), so each turn takes all
-the chunks that arrived meanwhile. A frame waits for the sample batch
-(``BATCH_WINDOW_S``, the same 2 ms) anyway. A turn that runs past its tick
+the chunks that arrived meanwhile. The price is latency: a sample waits for its
+turn's tick, then for its batch (``BATCH_WINDOW_S``, also 2 ms); the median delay
+from a controller's sample to the viewer grew from 4 to 7 or 8 ms. A turn that runs past its tick
 sleeps not at all: an overloaded loop runs as it would unpaced. Every
 ``PROBE_AFTER_S`` the pacing stops for one measuring period, to see whether the
 flood goes on; when it does not, the loop stays unpaced and reacts at once.
