@@ -10,15 +10,16 @@ wakes about 500 times a second, its batches hold twice the samples, and the
 server's CPU per robot-sample fell by 15 to 29 % at 50 to 150 controllers
 (bench/plant.py, section "Robots per core, before and after pacing").
 
-While the loop's thread is woken more than ``ON_WAKES_PER_S`` times a second,
-it is paced: a callback at the end of every turn keeps the loop from waiting in
-epoll and sleeps until the next tick (every ``TICK_S``), so each turn takes all
-the chunks that arrived meanwhile. The price is latency: a sample waits for its
-turn's tick, then for its batch (``BATCH_WINDOW_S``, also 2 ms); the median delay
-from a controller's sample to the viewer grew from 4 to 7 or 8 ms. A turn that runs past its tick
-sleeps not at all: an overloaded loop runs as it would unpaced. Every
-``PROBE_AFTER_S`` the pacing stops for one measuring period, to see whether the
-flood goes on; when it does not, the loop stays unpaced and reacts at once.
+While the loop's thread is woken more than ``ON_WAKES_PER_S`` times a second and
+uses more than ``BUSY_ABOVE`` of a core, it is paced: a callback at the end of
+every turn keeps the loop from waiting in epoll and sleeps until the next tick
+(every ``TICK_S``), so each turn takes all the chunks that arrived meanwhile.
+The price is latency: a sample waits for its turn's tick, then for its batch
+(``BATCH_WINDOW_S``, also 2 ms); the median delay from a controller's sample to
+the viewer grew from 4 to 7 or 8 ms. A turn that runs past its tick sleeps not
+at all: an overloaded loop runs as it would unpaced. Every ``PROBE_AFTER_S`` the
+pacing stops for one measuring period, to see whether the flood goes on; when it
+does not, the loop stays unpaced and reacts at once.
 """
 
 from __future__ import annotations
@@ -37,6 +38,12 @@ TICK_S = 0.002
 """A paced loop turns at most this often; the sample batch waits as long (BATCH_WINDOW_S)."""
 ON_WAKES_PER_S = 1000.0
 """Twice the paced rate: pacing at least halves the wake-ups it is switched on for."""
+BUSY_ABOVE = 0.25
+"""The share of a core the loop's thread must use as well: below, saving CPU is not worth
+the delay (a robot's frame waits up to 4 ms more)."""
+SATURATED_ABOVE = 0.9
+"""A loop this busy is paced however seldom it waits: it seldom waits because it is always
+behind, and unpaced, the first relief would bring the flood of wake-ups back."""
 PROBE_AFTER_S = 2.0
 """Paced this long, the loop runs one measuring period (lateness.PERIOD_S) unpaced."""
 
@@ -56,14 +63,19 @@ class LoopPacer:
         """On: the loop turns once per tick (but for a probe's measuring period now and then)."""
         self.wakes_per_s = 0.0
         """Wake-ups per second in the newest measuring period that ran unpaced."""
+        self.busy = 0.0
+        """The share of a core the loop's thread used in that period."""
         self._probing = False
         """Paced, but the period in progress runs unpaced, to measure."""
+        self._flooded = False
+        """The last period measured unpaced called for pacing (one alone is not enough)."""
         self._turning = False
         """True while a chain of ``_turn`` calls runs (it ends at its first call unpaced)."""
         self._started = False
         self._paced_since = 0.0
         self._next_tick = 0.0
         self._wakes = wakes_so_far()
+        self._cpu = time.thread_time()
         self._measured = time.monotonic()
 
     def start(self) -> None:
@@ -73,27 +85,28 @@ class LoopPacer:
             lateness().listen(self._measure)
 
     def _measure(self, _late_s: float) -> None:
-        """After every lateness tick: the wake-ups since the last, and what they call for."""
-        wakes, now = wakes_so_far(), time.monotonic()
+        """After every lateness tick (in the loop's thread): the wake-ups and CPU since the
+        last, and what they call for."""
+        wakes, cpu, now = wakes_so_far(), time.thread_time(), time.monotonic()
         assert wakes is not None and self._wakes is not None  # else never started
-        rate = (wakes - self._wakes) / max(now - self._measured, 1e-3)
-        self._wakes, self._measured = wakes, now
+        elapsed = max(now - self._measured, 1e-3)
+        rate, busy = (wakes - self._wakes) / elapsed, (cpu - self._cpu) / elapsed
+        self._wakes, self._cpu, self._measured = wakes, cpu, now
         if self.paced and not self._probing:  # the sleeps are wake-ups too: nothing learnt
             if now - self._paced_since >= PROBE_AFTER_S:
                 self._probing = True  # the chain of turns ends at its next call
             return
-        self.wakes_per_s = rate
-        if rate > ON_WAKES_PER_S:
+        self.wakes_per_s, self.busy = rate, busy
+        news = f"event loop woken {rate:.0f} times a second, {busy:.0%} busy"
+        flooded = busy > BUSY_ABOVE and (rate > ON_WAKES_PER_S or busy > SATURATED_ABOVE)
+        before, self._flooded = self._flooded, flooded
+        if flooded and (self.paced or before):  # a probe confirms; else two periods in a row
             if not self.paced:
-                log.info(
-                    "event loop woken %.0f times a second: one turn per %g ms from now on",
-                    rate,
-                    TICK_S * 1e3,
-                )
+                log.info("%s: one turn per %g ms from now on", news, TICK_S * 1e3)
             self._pace(now)
-        elif self.paced:  # a probe found the flood over
+        elif not flooded and self.paced:  # a probe found the flood over
             self.paced = self._probing = False
-            log.info("event loop woken %.0f times a second: unpaced again", rate)
+            log.info("%s: unpaced again", news)
 
     def _pace(self, now: float) -> None:
         self.paced, self._probing, self._paced_since = True, False, now

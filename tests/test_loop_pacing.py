@@ -1,6 +1,7 @@
 """A loop flooded by wake-ups turns once per tick, takes every ready byte, and unpaces after.
 
-A thread writes one byte at a time into a socket the loop reads. Unpaced,
+A thread writes one byte at a time into a socket the loop reads, and each
+read costs the loop some CPU, as a chunk of an event stream does. Unpaced,
 the loop wakes for each byte and reads it alone; paced, a turn reads what
 arrived during the tick's sleep, so there are far fewer reads than bytes.
 """
@@ -22,21 +23,29 @@ from server.loop_pacing import loop_pacer
 
 
 class Counting(asyncio.Protocol):
-    def __init__(self) -> None:
+    def __init__(self, cost_s: float) -> None:
         self.reads = 0
         self.bytes = 0
+        self.cost_s = cost_s
+        """CPU seconds each read costs, as if its bytes were made into frames."""
 
     def data_received(self, data: bytes) -> None:
         self.reads += 1
         self.bytes += len(data)
+        end = time.thread_time() + self.cost_s
+        while time.thread_time() < end:
+            pass
 
 
 @asynccontextmanager
-async def bytes_every(every_s: float) -> AsyncIterator[tuple[Counting, list[int]]]:
+async def bytes_every(
+    every_s: float, cost_s: float = 0.0
+) -> AsyncIterator[tuple[Counting, list[int]]]:
     """The loop reads a socket into which a thread writes a byte every ``every_s`` (for at
-    most 10 s) until the block ends; yields the reads and ``[bytes sent]``."""
+    most 10 s) until the block ends, each read costing ``cost_s`` of CPU; yields the reads
+    and ``[bytes sent]``."""
     ours, theirs = socket.socketpair()
-    counting, sent, stop = Counting(), [0], threading.Event()
+    counting, sent, stop = Counting(cost_s), [0], threading.Event()
 
     def write() -> None:
         end = time.monotonic() + 10.0
@@ -54,6 +63,7 @@ async def bytes_every(every_s: float) -> AsyncIterator[tuple[Counting, list[int]
     finally:
         stop.set()
         thread.join()
+        await until(lambda: counting.bytes == sent[0], 5.0)  # what is still on its way
         transport.close()
         theirs.close()
 
@@ -76,17 +86,18 @@ async def test_a_flooded_loop_reads_once_per_tick_and_loses_nothing(
     def said(text: str) -> int:
         return sum(text in r.getMessage() for r in caplog.records)
 
-    async with bytes_every(0.0002) as (counting, sent):
+    async with bytes_every(0.0002, cost_s=0.00015) as (counting, sent):
         assert await until(lambda: pacer.paced, 3.0), "a flood of wake-ups, and never paced"
         assert pacer.wakes_per_s > loop_pacing.ON_WAKES_PER_S
+        assert pacer.busy > loop_pacing.BUSY_ABOVE
         reads, taken = counting.reads, counting.bytes
         await asyncio.sleep(1.0)  # past two probes: the flood goes on, so does the pacing
         reads, taken = counting.reads - reads, counting.bytes - taken
         assert pacer.paced and said("unpaced again") == 0
     assert taken > 0 and reads < 0.6 * taken, (reads, taken)  # unpaced: about one read each
-    assert await until(lambda: counting.bytes == sent[0], 2.0), "bytes were lost"
+    assert counting.bytes == sent[0], "bytes were lost"
     assert await until(lambda: not pacer.paced, 3.0), "the flood ended, and still paced"
-    assert said("times a second: one turn per 2 ms") == 1
+    assert said("busy: one turn per 2 ms from now on") == 1
     assert await until(lambda: said("unpaced again") == 1, 1.0)
 
 
@@ -95,6 +106,29 @@ async def test_a_loop_woken_now_and_then_is_not_paced() -> None:
     pacer.start()
     async with bytes_every(0.005) as (counting, sent):
         await asyncio.sleep(0.8)
-    assert await until(lambda: counting.bytes == sent[0], 2.0)
-    assert not pacer.paced
+    assert counting.bytes == sent[0]
+    assert not pacer.paced, (pacer.wakes_per_s, pacer.busy)
     assert 0 < pacer.wakes_per_s < loop_pacing.ON_WAKES_PER_S
+
+
+async def test_a_loop_woken_often_but_seldom_busy_is_not_paced() -> None:
+    # Pacing would save little CPU that anyone needs, and delay every frame.
+    pacer = loop_pacer()
+    pacer.start()
+    async with bytes_every(0.0005) as (counting, sent):
+        await asyncio.sleep(0.8)
+    assert counting.bytes == sent[0]
+    measured = (pacer.wakes_per_s, pacer.busy)
+    assert pacer.wakes_per_s > loop_pacing.ON_WAKES_PER_S, ("the test's flood is weak", measured)
+    assert pacer.busy < loop_pacing.BUSY_ABOVE, measured
+    assert not pacer.paced, measured
+
+
+async def test_a_saturated_loop_is_paced_though_it_seldom_waits() -> None:
+    # Always behind, it seldom sleeps; unpaced, a little relief would flood it with wake-ups.
+    pacer = loop_pacer()
+    pacer.start()
+    async with bytes_every(0.0002, cost_s=0.002) as (counting, sent):
+        assert await until(lambda: pacer.paced, 3.0), (pacer.wakes_per_s, pacer.busy)
+        assert pacer.busy > loop_pacing.SATURATED_ABOVE
+    assert counting.bytes == sent[0]

@@ -156,6 +156,11 @@ class RuntimeCollector(Collector):
             "How often the event loop's thread was woken, in its newest unpaced measure",
             value=pacer.wakes_per_s,
         )
+        yield GaugeMetricFamily(
+            "linkview_event_loop_busy_ratio",
+            "The share of a core the event loop's thread used, in its newest unpaced measure",
+            value=pacer.busy,
+        )
 
 
 @router.get("/metrics", include_in_schema=False)

@@ -158,3 +158,8 @@ async def test_metrics_show_how_late_the_event_loop_runs() -> None:
     ]
     assert counts and counts[0] >= 2, counts
     assert "linkview_event_loop_lag_newest_seconds " in text
+    # One demo source wakes the loop far less than a flood: measured, and not paced.
+    values = dict(line.rsplit(" ", 1) for line in text.splitlines() if line[:1] != "#")
+    assert float(values["linkview_event_loop_paced"]) == 0.0
+    assert float(values["linkview_event_loop_wakeups_per_second"]) > 0.0
+    assert 0.0 < float(values["linkview_event_loop_busy_ratio"]) < 1.0
