@@ -95,10 +95,9 @@ def main() -> None:
     header = ["sleep", "CPU 0 shared with", "wake-ups/s", "CPU µs per wake-up"]
     notes = (
         f"One thread pinned to CPU {CPU}, {seconds:g} s per case, medians of {ROUNDS} "
-        "alternating rounds; CPU µs per wake-up: the "
-        "thread's own CPU time over its wake-ups. The machine is "
-        f"shared with other jobs. Load average (1 min) {load0[0]:.2f} before, "
-        f"{load1[0]:.2f} after."
+        "alternating rounds; CPU µs per wake-up: the thread's own CPU time over its "
+        "wake-ups. The machine is shared with other jobs. Load average (1 min) "
+        f"{load0[0]:.2f} before, {load1[0]:.2f} after."
     )
     body = f"{notes}\n\n{markdown_table(header, rows)}\n"
     if args.quick:
