@@ -11,16 +11,16 @@ server's CPU per robot-sample fell by 15 to 29 % at 50 to 150 controllers
 (bench/plant.py, section "Robots per core, before and after pacing").
 
 While the loop's thread is woken more than ``ON_WAKES_PER_S`` times a second and
-uses more than ``BUSY_ABOVE`` of a core, it is paced: a callback at the end of
-every turn keeps the loop from waiting in epoll and sleeps until the next tick
-(every ``TICK_S``), so each turn takes all the chunks that arrived meanwhile.
-The price is latency: a sample waits for the tick and one sleep more (``_turn``
-says why), then for its batch (``BATCH_WINDOW_S``, also 2 ms); the median delay
-from a controller's sample to the viewer grew from 4 to 7 or 8 ms. A turn that
-runs past its tick sleeps not at all: an overloaded loop runs as it would
-unpaced. Every ``PROBE_AFTER_S`` the pacing stops for one measuring period, to
-see whether the flood goes on; when it does not, the loop stays unpaced and
-reacts at once.
+uses more than ``BUSY_ABOVE`` of a core, it is paced: a callback in every turn
+keeps the loop from waiting in epoll and sleeps until the next tick (every
+``TICK_S``), so each turn takes all the chunks that arrived meanwhile. The price
+is latency: a sample waits for the tick and one sleep more (``_turn`` says why),
+then for its batch (``BATCH_WINDOW_S``, also 2 ms); the median delay from a
+controller's sample to the viewer grew from 4 to 7 or 8 ms. A turn that runs
+past its tick sleeps not at all: an overloaded loop runs as it would unpaced.
+Every ``PROBE_AFTER_S`` the pacing stops for one measuring period, to see
+whether the flood goes on; when it does not, the loop stays unpaced and reacts
+at once.
 """
 
 from __future__ import annotations
