@@ -19,7 +19,7 @@ from contextlib import asynccontextmanager
 import pytest
 
 from server import loop_pacing
-from server.loop_pacing import loop_pacer
+from server.loop_pacing import LoopPacer, loop_pacer
 
 
 class Counting(asyncio.Protocol):
@@ -75,13 +75,19 @@ async def until(condition: Callable[[], bool], timeout_s: float) -> bool:
     return condition()
 
 
+@pytest.fixture
+async def pacer() -> LoopPacer:
+    """The test's event loop's pacer, started."""
+    started = loop_pacer()
+    started.start()
+    return started
+
+
 async def test_a_flooded_loop_reads_once_per_tick_and_loses_nothing(
-    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+    pacer: LoopPacer, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
     monkeypatch.setattr(loop_pacing, "PROBE_AFTER_S", 0.4)  # a probe's 0.1 s unpaced each
     caplog.set_level(logging.INFO, "server.loop_pacing")
-    pacer = loop_pacer()
-    pacer.start()
 
     def said(text: str) -> int:
         return sum(text in r.getMessage() for r in caplog.records)
@@ -101,9 +107,7 @@ async def test_a_flooded_loop_reads_once_per_tick_and_loses_nothing(
     assert await until(lambda: said("unpaced again") == 1, 1.0)
 
 
-async def test_a_loop_woken_now_and_then_is_not_paced() -> None:
-    pacer = loop_pacer()
-    pacer.start()
+async def test_a_loop_woken_now_and_then_is_not_paced(pacer: LoopPacer) -> None:
     async with bytes_every(0.005) as (counting, sent):
         await asyncio.sleep(0.8)
     assert counting.bytes == sent[0]
@@ -111,10 +115,8 @@ async def test_a_loop_woken_now_and_then_is_not_paced() -> None:
     assert 0 < pacer.wakes_per_s < loop_pacing.ON_WAKES_PER_S
 
 
-async def test_a_loop_woken_often_but_seldom_busy_is_not_paced() -> None:
+async def test_a_loop_woken_often_but_seldom_busy_is_not_paced(pacer: LoopPacer) -> None:
     # Pacing would save little CPU that anyone needs, and delay every frame.
-    pacer = loop_pacer()
-    pacer.start()
     async with bytes_every(0.0005) as (counting, sent):
         await asyncio.sleep(0.8)
     assert counting.bytes == sent[0]
@@ -124,10 +126,8 @@ async def test_a_loop_woken_often_but_seldom_busy_is_not_paced() -> None:
     assert not pacer.paced, measured
 
 
-async def test_a_saturated_loop_is_paced_though_it_seldom_waits() -> None:
+async def test_a_saturated_loop_is_paced_though_it_seldom_waits(pacer: LoopPacer) -> None:
     # Always behind, it seldom sleeps; unpaced, a little relief would flood it with wake-ups.
-    pacer = loop_pacer()
-    pacer.start()
     async with bytes_every(0.0002, cost_s=0.002) as (counting, sent):
         assert await until(lambda: pacer.paced, 3.0), (pacer.wakes_per_s, pacer.busy)
         assert pacer.busy > loop_pacing.SATURATED_ABOVE
