@@ -16,6 +16,7 @@ except in quick runs.
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import select
 import statistics
@@ -40,16 +41,18 @@ print(count)
 
 def wake_cost(every_s: float, seconds: float, epoll: bool = False) -> tuple[float, float]:
     """(wake-ups per second, CPU µs per wake-up) of this thread sleeping ``every_s`` at a time."""
-    poller = select.epoll() if epoll else None
-    count, cpu0 = 0, time.thread_time()
-    end = time.perf_counter() + seconds
-    while time.perf_counter() < end:
-        if poller is not None:
-            poller.poll(every_s)
-        else:
-            time.sleep(every_s)
-        count += 1
-    cpu = time.thread_time() - cpu0
+    with select.epoll() as poller:  # empty: a poll only waits
+        wait = (
+            functools.partial(poller.poll, every_s)
+            if epoll
+            else functools.partial(time.sleep, every_s)
+        )
+        count, cpu0 = 0, time.thread_time()
+        end = time.perf_counter() + seconds
+        while time.perf_counter() < end:
+            wait()
+            count += 1
+        cpu = time.thread_time() - cpu0
     return count / seconds, 1e6 * cpu / count
 
 
