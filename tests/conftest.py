@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import random
 import shutil
 import socket
 from collections.abc import AsyncIterator, Callable, Iterator
@@ -63,11 +64,42 @@ def cell_with(*robots: Robot) -> Cell:
     return dataclasses.replace(cell, path=None, robots=(*cell.robots, *robots))
 
 
+FIXED_PORTS_FROM = 20000
+"""Well above the ports services register (redis 6379, 8080, ...), below Linux's 32768."""
+
+
+def _ephemeral_low() -> int:
+    """The first port of the kernel's ephemeral range (32768 where it cannot be read)."""
+    try:
+        text = Path("/proc/sys/net/ipv4/ip_local_port_range").read_text()
+        return max(int(text.split()[0]), FIXED_PORTS_FROM + 1000)
+    except (OSError, ValueError, IndexError):
+        return 32768
+
+
+_handed_out: set[int] = set()
+
+
 def free_port() -> int:
-    """A TCP port on 127.0.0.1 that nothing listens on right now."""
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
+    """A TCP port on 127.0.0.1 that nothing listens on now, for a server a test starts later.
+
+    Drawn below the kernel's ephemeral range: a port from that range (``bind`` to port 0)
+    may be taken, between this call and the server's bind, by any socket another process
+    binds to port 0 or connects out from. CI saw it: an embedded mock of a cluster worker
+    got a replica's port, and the replica's health check was answered by the mock.
+    """
+    low = _ephemeral_low()
+    while True:
+        port = random.randrange(FIXED_PORTS_FROM, low)
+        if port in _handed_out:
+            continue
+        with socket.socket() as sock:
+            try:
+                sock.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+        _handed_out.add(port)
+        return port
 
 
 @asynccontextmanager

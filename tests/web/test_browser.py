@@ -21,15 +21,8 @@ import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page
 
-from tests.web._browser import (
-    ROOT,
-    Watched,
-    free_port,
-    open_page,
-    post_json,
-    server_process,
-    watch,
-)
+from tests.conftest import free_port
+from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
 
 ARTIFACTS = ROOT / "tests" / "artifacts"
 TIMEOUT_MS = 30_000

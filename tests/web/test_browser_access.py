@@ -15,7 +15,8 @@ from pathlib import Path
 
 from playwright.sync_api import Browser
 
-from tests.web._browser import free_port, open_page, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import open_page, server_process, watch
 
 TOKEN = "viewer-link-secret"
 TIMEOUT_MS = 30_000

@@ -12,13 +12,8 @@ from pathlib import Path
 
 from playwright.sync_api import Browser
 
-from tests.web._browser import (
-    free_port,
-    open_page,
-    post_json,
-    server_process,
-    watch,
-)
+from tests.conftest import free_port
+from tests.web._browser import open_page, post_json, server_process, watch
 
 TIMEOUT_MS = 30_000
 SOURCE = '[[source]]\nname = "demo"\n'

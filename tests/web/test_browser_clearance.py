@@ -7,7 +7,8 @@ from pathlib import Path
 from playwright.sync_api import Browser
 
 from tests.clearance.cells import two_arms
-from tests.web._browser import ROOT, free_port, open_page, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import ROOT, open_page, server_process, watch
 
 TIMEOUT_MS = 60_000
 

@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import Browser
 
-from tests.web._browser import ROOT, free_port, mock_process, open_page, post_json, server_process
+from tests.conftest import free_port
+from tests.web._browser import ROOT, mock_process, open_page, post_json, server_process
 
 TIMEOUT_MS = 180_000  # generous: the page renders in software, on a shared machine
 LAG_S = 0.15

@@ -21,8 +21,9 @@ from playwright.sync_api import Browser, Page
 
 from server.cell import load_cell
 from server.urdf import load_urdf
+from tests.conftest import free_port
 from tests.urdf.corpus import CORPUS
-from tests.web._browser import ROOT, free_port, open_page, server_process, watch
+from tests.web._browser import ROOT, open_page, server_process, watch
 
 TIMEOUT_MS = 180_000  # software rendering on shared cores: loading is slow
 ARTIFACTS = ROOT / "tests" / "artifacts"

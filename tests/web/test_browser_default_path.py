@@ -13,7 +13,8 @@ from pathlib import Path
 
 from playwright.sync_api import sync_playwright
 
-from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, free_port, open_page, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, open_page, server_process, watch
 
 TIMEOUT_MS = 60_000
 DEFAULT_PATH_ARGS = [arg for arg in CHROMIUM_ARGS if arg != "--disable-gpu"]

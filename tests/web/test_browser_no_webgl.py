@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Browser, sync_playwright
 
-from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, free_port, open_page, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, open_page, server_process, watch
 
 TIMEOUT_MS = 60_000
 

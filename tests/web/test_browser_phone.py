@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Browser, Page
 
-from tests.web._browser import free_port, open_page, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import open_page, server_process, watch
 
 TIMEOUT_MS = 60_000
 CLICK_TIMEOUT_MS = 10_000  # a control another element covers never becomes clickable

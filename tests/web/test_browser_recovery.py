@@ -10,10 +10,10 @@ from pathlib import Path
 
 from playwright.sync_api import Browser, Page
 
+from tests.conftest import free_port
 from tests.web._browser import (
     START_BANNER_LOG,
     banner_log,
-    free_port,
     mock_process,
     open_page,
     server_process,

@@ -11,7 +11,8 @@ from urllib.parse import urlencode
 import pytest
 from playwright.sync_api import Browser
 
-from tests.web._browser import ROOT, Watched, free_port, open_page, post_json, server_process, watch
+from tests.conftest import free_port
+from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
 
 TIMEOUT_MS = 30_000
 ROBOT = "iiwa7"
