@@ -26,9 +26,9 @@ from server.discover import SourceSpec, describe, starter_cell
 from server.discover.units import mapping
 from server.mock_ctrlx import AxisGroup, Machine, SimAxis, Trafo, build_app, demo_groups
 from server.protocol import decode_frames
-from tests.conftest import demo_cell
+from tests.conftest import demo_cell, free_port
 from tests.ctrlx.helpers import USER, running
-from tests.web._browser import ROOT, free_port, mock_process, server_process
+from tests.web._browser import ROOT, mock_process, server_process
 
 FIXTURES = ROOT / "tests" / "urdf" / "fixtures"
 ENV = {"LINKVIEW_CTRLX_PASSWORD": "boschrexroth"}
