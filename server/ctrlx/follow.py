@@ -341,8 +341,6 @@ class _Latest:
         self._changed = False
         self._cycles = 0
         """Publish cycles (distinct timestamps) gathered since the last sample."""
-        self._taken: tuple[float | None, dict[str, float | Exception]] | None = None
-        """The last sample's time and values: a cycle sent again is no new sample."""
 
     def add(self, item: Update | Keepalive | PlainUpdates) -> None:
         if isinstance(item, PlainUpdates):
@@ -379,19 +377,14 @@ class _Latest:
         complete = len(self._values) == len(self._nodes)
         if not complete and time.monotonic() - self._opened < self._grace_s:
             return None  # the initial events of some nodes are still on their way
-        cycles, self._changed, self._cycles = self._cycles, False, 0
+        self._changed, received, self._cycles = False, max(self._cycles, 1), 0
         if complete:
             values = {n: self._values[n] for n in self._nodes}
         else:
             missing = DataLayerError("the subscription sent no value for this node")
             values = {n: self._values.get(n, missing) for n in self._nodes}
-        if not cycles and self._t is not None and self._taken == (self._t, values):
-            # The same cycle again: a stream opened with a fresh token begins with the values
-            # the old one sent last, at their time (make before break, _hand_over).
-            return None
-        self._taken = (self._t, values)
         t_source = self._t if self._t is not None else time.time()
-        return _checked(Sample(t_source, values, max(cycles, 1)))
+        return _checked(Sample(t_source, values, received))
 
 
 async def _subscribe(

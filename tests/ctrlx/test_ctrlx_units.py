@@ -31,7 +31,6 @@ from server.ctrlx.events import (
     decode_event,
     plain_updates,
 )
-from server.ctrlx.follow import _Latest
 from server.ctrlx.problem import ProblemError, problem_for_result, problem_for_status
 from server.ctrlx.values import number_from_data, numbers_from_data, unit_from_data
 
@@ -313,20 +312,3 @@ def test_events_decode_to_updates_keepalives_and_node_errors() -> None:
     assert isinstance(error.value, NodeNotFound)
     with pytest.raises(ProblemError, match="broken"):
         decode_event(events[3], prefix)
-
-
-def test_a_cycle_sent_again_is_no_new_sample_but_a_late_part_of_it_is() -> None:
-    # A stream opened with a fresh token may begin with the cycle the old stream sent last.
-    nodes = ["a", "b"]
-    latest = _Latest(nodes, grace_s=0.0)
-    latest.add(PlainUpdates(nodes, [100.00, 100.00], [1.0, 2.0]))
-    first = latest.take()
-    assert first is not None and first.t_source == 100.00
-    latest.add(PlainUpdates(nodes, [100.00, 100.00], [1.0, 2.0]))  # the new stream's start
-    assert latest.take() is None
-    latest.add(PlainUpdates(["b"], [100.00], [2.5]))  # a cycle's late part changes a value
-    late = latest.take()
-    assert late is not None and late.values == {"a": 1.0, "b": 2.5}
-    latest.add(Keepalive(100.02))  # nothing changed, but time went on: a sample
-    kept = latest.take()
-    assert kept is not None and kept.t_source == 100.02 and kept.values == late.values
