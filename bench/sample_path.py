@@ -37,7 +37,8 @@ from cluster import ARM_JOINTS, cell_text  # noqa: E402
 
 from server.cell.load import load_cell  # noqa: E402
 from server.ctrlx.events import SseParser, Update, decode_event, plain_updates  # noqa: E402
-from server.ctrlx.follow import Sample, _Latest  # noqa: E402
+from server.ctrlx.sample import Sample  # noqa: E402
+from server.ctrlx.subscribed import Latest  # noqa: E402
 from server.ctrlx.timestamps import filetime_from_unix  # noqa: E402
 from server.history import History  # noqa: E402
 from server.mock_ctrlx.events import sse  # noqa: E402
@@ -141,7 +142,7 @@ def main() -> None:
         Sample(it[0].t_source or 0.0, {u.node: u.value for u in it if isinstance(u, Update)})
         for it in items  # type: ignore[union-attr]
     ]
-    sse_parser, latest = SseParser(), _Latest(nodes, grace_s=1.0)
+    sse_parser, latest = SseParser(), Latest(nodes, grace_s=1.0)
     cycles = [plain_updates(SseParser().usual_updates(c) or []) for c in chunks]
 
     def parse(i: int) -> object:  # as EventStream reads a chunk of a publish cycle

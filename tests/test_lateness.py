@@ -14,7 +14,8 @@ import time
 import pytest
 
 from server.ctrlx.events import Keepalive, Update
-from server.ctrlx.follow import _Latest, follow
+from server.ctrlx.follow import follow
+from server.ctrlx.subscribed import Latest
 from server.lateness import PatientTimeout, lateness
 from server.stream import status
 from server.stream.status import SourceHealth, load_summary
@@ -82,7 +83,7 @@ def test_overloaded_says_how_many_samples_were_processed(monkeypatch: pytest.Mon
 
 def test_a_late_reader_counts_every_publish_cycle_it_merged() -> None:
     nodes = ["a", "b"]
-    latest = _Latest(nodes, grace_s=0.0)
+    latest = Latest(nodes, grace_s=0.0)
     for t in (100.00, 100.02, 100.04):  # three cycles of two nodes, read in one go
         for node in nodes:
             latest.add(Update(node, t, t))

@@ -4,7 +4,8 @@ from .auth import API_PATHS, ApiVersion, LoginBackoff, Token, TokenManager
 from .checks import check_base_url
 from .client import BulkRead, Credentials, DataLayerClient, Traffic
 from .events import SseEvent, SseParser, SubscriptionSettings
-from .follow import MODES, REPROBE_S, Mode, RetryPolicy, Sample, follow, follow_into
+from .follow import MODES, REPROBE_S, Mode, follow, follow_into
+from .interruptions import RetryPolicy
 from .paths import encode_node_path
 from .problem import (
     AuthError,
@@ -15,6 +16,7 @@ from .problem import (
     StreamEnded,
     Unsupported,
 )
+from .sample import Sample
 from .timestamps import filetime_from_unix, unix_from_filetime
 from .tls import client_ssl
 
