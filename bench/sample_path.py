@@ -5,7 +5,7 @@ shared 2-core machine its figure moves with the load. This one runs the same
 code path in one thread, without sockets, so each stage's cost is steady
 enough to compare changes: the events of one publish cycle of a 7-axis arm
 (seven ``update`` events, as the mock and a ctrlX CORE send them) are parsed
-and decoded (``server.ctrlx.events``), gathered into a sample (the subscription's
+and decoded (``server.ctrlx.sse`` and ``updates``), gathered into a sample (the subscription's
 latest-value store), kept in the history, turned into poses and encoded
 (``Acquisition``), and offered to one protocol-2 viewer whose connection takes
 it at once (the WebSocket frame made once per message). What it leaves out
@@ -36,10 +36,11 @@ from _report import markdown_table, publish  # noqa: E402
 from cluster import ARM_JOINTS, cell_text  # noqa: E402
 
 from server.cell.load import load_cell  # noqa: E402
-from server.ctrlx.events import SseParser, Update, decode_event, plain_updates  # noqa: E402
 from server.ctrlx.sample import Sample  # noqa: E402
+from server.ctrlx.sse import SseParser  # noqa: E402
 from server.ctrlx.subscribed import Latest  # noqa: E402
 from server.ctrlx.timestamps import filetime_from_unix  # noqa: E402
+from server.ctrlx.updates import Update, decode_event, plain_updates  # noqa: E402
 from server.history import History  # noqa: E402
 from server.mock_ctrlx.events import sse  # noqa: E402
 from server.stream.acquisition import Acquisition, PollSettings  # noqa: E402

@@ -13,9 +13,9 @@ import time
 
 import pytest
 
-from server.ctrlx.events import Keepalive, Update
 from server.ctrlx.follow import follow
 from server.ctrlx.subscribed import Latest
+from server.ctrlx.updates import Keepalive, Update
 from server.lateness import PatientTimeout, lateness
 from server.stream import status
 from server.stream.status import SourceHealth, load_summary

@@ -3,7 +3,7 @@
 from .auth import API_PATHS, ApiVersion, LoginBackoff, Token, TokenManager
 from .checks import check_base_url
 from .client import BulkRead, Credentials, DataLayerClient, Traffic
-from .events import SseEvent, SseParser, SubscriptionSettings
+from .events import SubscriptionSettings
 from .follow import MODES, REPROBE_S, Mode, follow, follow_into
 from .interruptions import RetryPolicy
 from .paths import encode_node_path
@@ -17,6 +17,7 @@ from .problem import (
     Unsupported,
 )
 from .sample import Sample
+from .sse import SseEvent, SseParser
 from .timestamps import filetime_from_unix, unix_from_filetime
 from .tls import client_ssl
 

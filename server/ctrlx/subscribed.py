@@ -13,18 +13,11 @@ import time
 from collections.abc import Callable, Sequence
 
 from .client import DataLayerClient
-from .events import (
-    EventStream,
-    Items,
-    Keepalive,
-    PlainUpdates,
-    Subscription,
-    SubscriptionSettings,
-    Update,
-)
+from .events import EventStream, Subscription, SubscriptionSettings
 from .interruptions import Interruptions, news_level
 from .problem import DataLayerError, StreamEnded, Unsupported
 from .sample import Sample, checked
+from .updates import Items, Keepalive, PlainUpdates, Update
 
 log = logging.getLogger(__name__)
 

@@ -25,9 +25,10 @@ from server.ctrlx import (
     follow,
 )
 from server.ctrlx.bodies import MAX_BODY_BYTES, NOT_JSON, BodyTooLarge, decode, loads
-from server.ctrlx.events import InvalidEvent, SseEvent, Update, decode_event
 from server.ctrlx.problem import ProblemError
 from server.ctrlx.redact import Redactor
+from server.ctrlx.sse import SseEvent
+from server.ctrlx.updates import InvalidEvent, Update, decode_event
 from server.ctrlx.values import bulk_values
 from server.mock_ctrlx import make_certificate
 from tests.ctrlx.fake_device import NODES, Behaviour, FakeDevice, serving

@@ -23,15 +23,9 @@ from server.ctrlx import (
     filetime_from_unix,
     unix_from_filetime,
 )
-from server.ctrlx.events import (
-    Keepalive,
-    PlainUpdates,
-    SseEvent,
-    Update,
-    decode_event,
-    plain_updates,
-)
 from server.ctrlx.problem import ProblemError, problem_for_result, problem_for_status
+from server.ctrlx.sse import SseEvent
+from server.ctrlx.updates import Keepalive, PlainUpdates, Update, decode_event, plain_updates
 from server.ctrlx.values import number_from_data, numbers_from_data, unit_from_data
 
 STREAM = (
