@@ -46,8 +46,10 @@ from cluster import PASSWORD_ENV, cell_text, health, start_farms  # noqa: E402
 from viewers import cpu_seconds, free_port, stop  # noqa: E402
 
 CLIENT = ROOT / "bench" / "_viewer_client.py"
-SERVER_CPU = 0
-OTHER_CPUS = set(range(os.cpu_count() or 1)) - {SERVER_CPU} or {SERVER_CPU}
+CPUS = sorted(os.sched_getaffinity(0))
+"""The CPUs this process may use (a container's share, not the host's count)."""
+SERVER_CPU = CPUS[0]
+OTHER_CPUS = set(CPUS[1:]) or {SERVER_CPU}
 FULL_SIZE_CORES = 16
 """Where the issue's K = 10 ... 400 are measured: mocks for 400 controllers take several cores."""
 Case = dict[str, Any]
@@ -104,9 +106,8 @@ def per_batch(before: dict[str, float], after: dict[str, float]) -> float:
 
 
 def start_server(stack: ExitStack, cell: Path, port: int, log: Path) -> subprocess.Popen[bytes]:
-    """``python -m server`` for the cell, on CPU 0 from its first instruction."""
-    cpus = "" if (os.cpu_count() or 1) <= SERVER_CPU else str(SERVER_CPU)
-    prefix = ["taskset", "-c", cpus] if cpus else []
+    """``python -m server`` for the cell, on SERVER_CPU from its first instruction."""
+    prefix = ["taskset", "-c", str(SERVER_CPU)]
     with open(log, "ab") as out:
         server = subprocess.Popen(
             [*prefix, sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
@@ -238,7 +239,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick and args.robots is None:
         args.robots, args.seconds, args.warmup = "5", 2.0, 1.0
-    full = (os.cpu_count() or 1) >= FULL_SIZE_CORES
+    full = len(CPUS) >= FULL_SIZE_CORES
     args.robots = args.robots or ("10,50,100,200,400" if full else "10,25,50,100,150")
     load0, cases = os.getloadavg(), []
     for k in map(int, args.robots.split(",")):
@@ -248,9 +249,9 @@ def main() -> None:
     rows = [[f.format(**c) for f in COLUMNS.values()] for c in cases]
     errors = [f"K = {c['robots']}: {'; '.join(c['errors'])}" for c in cases if c["errors"]]
     size = (
-        f"The issue's sizes, on a {os.cpu_count()}-core machine"
+        f"The issue's sizes, on {len(CPUS)} cores"
         if full
-        else f"Scaled down for this {os.cpu_count()}-core machine (the issue's K = 10 ... 400 "
+        else f"Scaled down for the {len(CPUS)} cores here (the issue's K = 10 ... 400 "
         "needs cores to spare for the mocks)"
     )
     others = f"CPU {min(OTHER_CPUS)}" if len(OTHER_CPUS) == 1 else f"CPUs {cpu_list(OTHER_CPUS)}"
