@@ -17,8 +17,14 @@ The issue's sizes (K = 10 ... 400, the default on 16 cores or more) are for
 a machine with cores to spare for the mocks; with fewer the mocks share what
 is left, so the default list is scaled down (K = 10 ... 150).
 
+``--sample-cost-ms C`` makes every sample burn C ms of CPU more (the test
+knob LINKVIEW_SAMPLE_COST_S): the server is then overloaded at sizes this
+machine's mocks can send, and the table adds how evenly the robots slowed
+down and what /api/health said.
+
 Usage: ``python bench/plant.py [--robots 10,50,100,200,400] [--seconds 5]
-[--warmup 4] [--quick]``; writes docs/benchmarks.md except in quick runs.
+[--warmup 4] [--sample-cost-ms 0] [--quick]``; writes docs/benchmarks.md except
+in quick runs.
 """
 
 from __future__ import annotations
@@ -73,6 +79,12 @@ COLUMNS = {
 }
 
 
+OVERLOAD_COLUMNS = {
+    "slowest / median": "{evenness:.2f}",
+    "health": "{overloaded}",
+}
+
+
 def pin(pid: int, cpus: set[int]) -> None:
     """Keep a process (every thread it has now) on ``cpus``."""
     for task in os.listdir(f"/proc/{pid}/task"):
@@ -105,14 +117,19 @@ def per_batch(before: dict[str, float], after: dict[str, float]) -> float:
     return done / turns if turns > 0 else float("nan")
 
 
-def start_server(stack: ExitStack, cell: Path, port: int, log: Path) -> subprocess.Popen[bytes]:
+def start_server(
+    stack: ExitStack, cell: Path, port: int, log: Path, sample_cost_ms: float
+) -> subprocess.Popen[bytes]:
     """``python -m server`` for the cell, on SERVER_CPU from its first instruction."""
     prefix = ["taskset", "-c", str(SERVER_CPU)]
+    env = {**os.environ, "PYTHONPATH": str(ROOT), PASSWORD_ENV: "boschrexroth"}
+    if sample_cost_ms:  # the test knob: every sample burns this much more CPU (an overload)
+        env["LINKVIEW_SAMPLE_COST_S"] = str(sample_cost_ms / 1e3)
     with open(log, "ab") as out:
         server = subprocess.Popen(
             [*prefix, sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
             cwd=ROOT,
-            env={**os.environ, "PYTHONPATH": str(ROOT), PASSWORD_ENV: "boschrexroth"},
+            env=env,
             stdout=out,
             stderr=out,
         )
@@ -140,7 +157,7 @@ def made(port: int) -> tuple[float, dict[str, int]]:
     return time.monotonic(), {r["name"]: r["frames"] for r in health(port)["robots"]}
 
 
-def run_case(robots: int, warmup: float, seconds: float) -> Case:
+def run_case(robots: int, warmup: float, seconds: float, sample_cost_ms: float = 0.0) -> Case:
     """Mocks, a server on one core and one viewer; one window measured."""
     with ExitStack() as stack, tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -151,7 +168,7 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         cell.parent.mkdir()
         cell.write_text(cell_text(urls))
         port = free_port()
-        server = start_server(stack, cell, port, folder / "server.log")
+        server = start_server(stack, cell, port, folder / "server.log", sample_cost_ms)
         connect_s = wait_connected(port, server, 60 + robots * 0.5)
         out = folder / "delays"
         viewer = subprocess.Popen(
@@ -193,6 +210,7 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         "cpu_per_sample_ms": 1e3 * cpu[0] / max(sum(made_fps) * elapsed, 1),
         "mocks_cpu": sum(cpu[1:]) / elapsed,
         "fps_min": min(fps),
+        "evenness": min(fps) / max(float(np.median(fps)), 1e-9),
         "fps_median": float(np.median(fps)),
         "made_median": float(np.median(made_fps)),
         "made_min": min(made_fps),
@@ -207,6 +225,7 @@ def run_case(robots: int, warmup: float, seconds: float) -> Case:
         "connected": states.count("connected"),
         "stale": states.count("stale"),
         "error": states.count("error"),
+        "overloaded": body1.get("samples", {}).get("overloaded") or "no",
         "errors": sorted({s["error"] for s in body1["sources"] if s["state"] == "error"}),
     }
 
@@ -236,17 +255,24 @@ def main() -> None:
     parser.add_argument("--warmup", type=float, default=4.0, help="after every source is live")
     parser.add_argument("--quick", action="store_true", help="no docs; default K = 5, 2 s")
     parser.add_argument("--title", default="Robots per core", help="section title")
+    parser.add_argument(
+        "--sample-cost-ms",
+        type=float,
+        default=0.0,
+        help="CPU every sample burns on top (LINKVIEW_SAMPLE_COST_S): overload the server",
+    )
     args = parser.parse_args()
     if args.quick and args.robots is None:
         args.robots, args.seconds, args.warmup = "5", 2.0, 1.0
     full = len(CPUS) >= FULL_SIZE_CORES
     args.robots = args.robots or ("10,50,100,200,400" if full else "10,25,50,100,150")
+    columns = {**COLUMNS, **OVERLOAD_COLUMNS} if args.sample_cost_ms else COLUMNS
     load0, cases = os.getloadavg(), []
     for k in map(int, args.robots.split(",")):
-        cases.append(run_case(k, args.warmup, args.seconds))
-        print("| " + " | ".join(f.format(**cases[-1]) for f in COLUMNS.values()) + " |")
+        cases.append(run_case(k, args.warmup, args.seconds, args.sample_cost_ms))
+        print("| " + " | ".join(f.format(**cases[-1]) for f in columns.values()) + " |")
     load1 = os.getloadavg()
-    rows = [[f.format(**c) for f in COLUMNS.values()] for c in cases]
+    rows = [[f.format(**c) for f in columns.values()] for c in cases]
     errors = [f"K = {c['robots']}: {'; '.join(c['errors'])}" for c in cases if c["errors"]]
     size = (
         f"The issue's sizes, on {len(CPUS)} cores"
@@ -276,13 +302,21 @@ def main() -> None:
         f"core. Load average (1, 5 min) {load0[0]:.2f}, {load0[1]:.2f} before, "
         f"{load1[0]:.2f}, {load1[1]:.2f} after."
     )
-    body = f"{notes}\n\n{markdown_table(list(COLUMNS), rows)}\n"
+    if args.sample_cost_ms:
+        notes += (
+            f" Overloaded on purpose: every sample burns {args.sample_cost_ms:g} ms of CPU more "
+            "(LINKVIEW_SAMPLE_COST_S), so the server carries fewer samples than the controllers "
+            "send. Slowest / median: the slowest robot's delivered rate over the median's; "
+            "health: /api/health's `samples.overloaded` at the end of the window."
+        )
+    body = f"{notes}\n\n{markdown_table(list(columns), rows)}\n"
     if errors:
         body += "\nSource errors at the end of the window: " + " / ".join(errors) + "\n"
     if args.quick:
         print("\n" + body)
     else:
-        publish("bench/plant.py", args.title, body)
+        cost = f" --sample-cost-ms {args.sample_cost_ms:g}" if args.sample_cost_ms else ""
+        publish(f"bench/plant.py{cost}", args.title, body)
 
 
 if __name__ == "__main__":
