@@ -19,6 +19,10 @@ class Pacer:
         self.skipped = 0
         """Ticks skipped so far (the loop ran a whole period or more behind)."""
 
+    def due_in(self) -> float:
+        """Seconds until the next tick (``wait`` sleeps at most that long)."""
+        return self._next + self.period_s - time.monotonic()
+
     async def wait(self) -> None:
         """Sleep until the next tick is due."""
         self._next += self.period_s

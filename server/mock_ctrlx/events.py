@@ -163,6 +163,11 @@ async def _next_tick(pacer: Pacer, request: web.Request) -> bool:
     a whole publish interval later; its subscription's lifetime starts when
     its last stream ends, so the end should be seen at once.
     """
+    if _hung_up(request):
+        return False
+    if pacer.due_in() <= HANGUP_POLL_S:  # one sleep, as one round of the poll: no task for it
+        await pacer.wait()
+        return not _hung_up(request)
     tick = asyncio.ensure_future(pacer.wait())
     try:
         while not tick.done():

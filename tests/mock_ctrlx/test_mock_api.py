@@ -11,9 +11,12 @@ import time
 from pathlib import Path
 
 import aiohttp
+import jwt
 import pytest
 
 from server.ctrlx import SseParser, unix_from_filetime
+from server.mock_ctrlx import auth
+from server.mock_ctrlx.auth import TokenIssuer
 from tests.conftest import free_port
 from tests.ctrlx.helpers import KIN12, Mock, client, running
 
@@ -145,3 +148,30 @@ async def test_axes_at_their_own_nodes_are_served_everywhere() -> None:
                 await asyncio.sleep(0.05)
         assert await c.read_number(nodes[1]) == pytest.approx(40.0)
     assert mock.count("POST", "/automation/api/v2/events") == 1
+
+
+def test_a_token_checked_before_is_still_refused_once_revoked_or_its_key_is_gone(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    now = [1000.0]
+    issuer = TokenIssuer({"u": "p"}, lifetime_s=10.0, clock=lambda: now[0])
+    first, second = issuer.issue("u", "p"), issuer.issue("u", "p")
+    assert first is not None and second is not None
+    assert issuer.check(first) is None and issuer.check(second) is None  # remembered now
+    forged = jwt.encode({"exp": 2000.0}, b"another key" * 3, algorithm="HS256")
+    assert issuer.check(forged) == "the token is not valid"
+    issuer.revoke(first)
+    assert issuer.check(first) == "the token was revoked"
+    now[0] = 1010.0
+    assert issuer.check(second) == "the token has expired"
+    now[0] = 1005.0
+    issuer.revoke_all()
+    assert issuer.check(second) == "the token is not valid"
+    # Only tokens it signed are remembered, and the expired ones go once there are many.
+    monkeypatch.setattr(auth, "MAX_REMEMBERED", 3)
+    tokens = [issuer.issue("u", "p") for _ in range(3)]
+    assert all(t is not None and issuer.check(t) is None for t in tokens)
+    now[0] = 1020.0
+    fresh = issuer.issue("u", "p")
+    assert fresh is not None and issuer.check(fresh) is None
+    assert len(issuer._expiry) == 1
