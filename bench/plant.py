@@ -15,7 +15,8 @@ count, where it has one) and the event loop's lateness.
 
 The issue's sizes (K = 10 ... 400, the default on 16 cores or more) are for
 a machine with cores to spare for the mocks; with fewer the mocks share what
-is left, so the default list is scaled down (K = 10 ... 150).
+is left, so the default list is scaled down (K = 10 ... 200; on 2 cores the
+mocks send a little under 50 Hz at K = 200).
 
 ``--sample-cost-ms C`` makes every sample burn C ms of CPU more (the test
 knob LINKVIEW_SAMPLE_COST_S): the server is then overloaded at sizes this
@@ -250,7 +251,11 @@ def processed(before: dict[str, Any], after: dict[str, Any]) -> str:
 def main() -> None:
     """Run every K, print the table and (unless quick) write it to docs/benchmarks.md."""
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--robots", help="robot counts (comma list; default 10,25,50,100,150)")
+    parser.add_argument(
+        "--robots",
+        help="robot counts (comma list; default 10,50,100,200,400 on 16 cores or more, "
+        "else 10,25,50,100,150,200)",
+    )
     parser.add_argument("--seconds", type=float, default=5.0, help="measuring window per K")
     parser.add_argument("--warmup", type=float, default=4.0, help="after every source is live")
     parser.add_argument("--quick", action="store_true", help="no docs; default K = 5, 2 s")
@@ -265,7 +270,7 @@ def main() -> None:
     if args.quick and args.robots is None:
         args.robots, args.seconds, args.warmup = "5", 2.0, 1.0
     full = len(CPUS) >= FULL_SIZE_CORES
-    args.robots = args.robots or ("10,50,100,200,400" if full else "10,25,50,100,150")
+    args.robots = args.robots or ("10,50,100,200,400" if full else "10,25,50,100,150,200")
     columns = {**COLUMNS, **OVERLOAD_COLUMNS} if args.sample_cost_ms else COLUMNS
     load0, cases = os.getloadavg(), []
     for k in map(int, args.robots.split(",")):
