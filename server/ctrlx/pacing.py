@@ -25,8 +25,8 @@ class Pacer:
 
     async def wait(self) -> None:
         """Sleep until the next tick is due."""
+        delay = self.due_in()
         self._next += self.period_s
-        delay = self._next - time.monotonic()
         if delay < -self.period_s:
             self.skipped += int(-delay / self.period_s)
             self._next, delay = time.monotonic(), 0.0
