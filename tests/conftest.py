@@ -65,32 +65,35 @@ def cell_with(*robots: Robot) -> Cell:
 
 
 FIXED_PORTS_FROM = 20000
-"""Well above the ports services register (redis 6379, 8080, ...), below Linux's 32768."""
+"""Well above the ports services register (redis 6379, 8080, ...)."""
 
 
-def _ephemeral_low() -> int:
-    """The first port of the kernel's ephemeral range (32768 where it cannot be read)."""
+def _outside_ephemeral() -> range:
+    """Ports the kernel never picks on its own: below its ephemeral range (32768 to 60999 by
+    default), or above it where a system starts the range lower."""
     try:
-        text = Path("/proc/sys/net/ipv4/ip_local_port_range").read_text()
-        return max(int(text.split()[0]), FIXED_PORTS_FROM + 1000)
-    except (OSError, ValueError, IndexError):
-        return 32768
+        low, high = map(int, Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split())
+    except (OSError, ValueError):
+        low, high = 32768, 60999
+    if low - FIXED_PORTS_FROM >= 1000:
+        return range(FIXED_PORTS_FROM, low)
+    return range(high + 1, 65536) if 65535 - high >= 1000 else range(FIXED_PORTS_FROM, 65536)
 
 
+_PORTS = _outside_ephemeral()
 _handed_out: set[int] = set()
 
 
 def free_port() -> int:
     """A TCP port on 127.0.0.1 that nothing listens on now, for a server a test starts later.
 
-    Drawn below the kernel's ephemeral range: a port from that range (``bind`` to port 0)
+    Drawn outside the kernel's ephemeral range: a port from that range (``bind`` to port 0)
     may be taken, between this call and the server's bind, by any socket another process
     binds to port 0 or connects out from. CI saw it: an embedded mock of a cluster worker
     got a replica's port, and the replica's health check was answered by the mock.
     """
-    low = _ephemeral_low()
     while True:
-        port = random.randrange(FIXED_PORTS_FROM, low)
+        port = random.choice(_PORTS)
         if port in _handed_out:
             continue
         with socket.socket() as sock:
