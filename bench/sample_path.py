@@ -55,10 +55,11 @@ TURN_SIZES = (1, 10, 50, 200)
 NODES_PREFIX = "/automation/api/v2/nodes/"
 
 
-class _Client:
-    """What Acquisition asks of its data-layer client off the network: its warning."""
+class _Connector:
+    """What Acquisition asks of its connector off the network: its warning and device state."""
 
     warning: str | None = None
+    device: str | None = None
 
 
 def publish_cycles(count: int) -> list[bytes]:
@@ -95,7 +96,7 @@ def acquisitions(folder: Path, count: int) -> tuple[list[Acquisition], list[Mess
         health = SourceHealth(name=robot.source, url="http://127.0.0.1:1", mock=False)
         tap = history.source(robot.source, nodes, PERIOD_S)
         settings = PollSettings(PERIOD_S)
-        out.append(Acquisition(_Client(), [robot], hub, health, settings, tap=tap))  # type: ignore[arg-type]
+        out.append(Acquisition(_Connector(), [robot], hub, health, settings, tap=tap))  # type: ignore[arg-type]
     return out, sent
 
 

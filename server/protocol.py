@@ -85,6 +85,8 @@ class SourceStatus(_Message):
     error: str | None
     warning: str | None = None
     """A standing caveat that does not stop the stream, e.g. the device's clock is behind."""
+    device: str | None = None
+    """What the device says of itself, e.g. a robot's mode and safety mode (a protective stop)."""
     last_sample_age_s: float | None
     overloaded: str | None = None
     """While this process makes fewer frames than the source sends: "overloaded: N of M

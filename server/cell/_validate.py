@@ -15,11 +15,11 @@ import difflib
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from pydantic import BaseModel, ValidationError
+from pydantic import TypeAdapter, ValidationError
 
 from . import schema
 
-M = TypeVar("M", bound=BaseModel)
+M = TypeVar("M")
 SECTIONS = ("source", "robot")
 REPAIR_ROUNDS = 5
 
@@ -58,9 +58,11 @@ def validate(raw: dict[str, Any]) -> Validated:
     else:
         return Validated(cell, dict(enumerate(cell.source)), dict(enumerate(cell.robot)), names)
     result = Validated(
-        None, _lenient(raw.get("source"), schema.Source), _lenient(raw.get("robot"), schema.Robot),
+        None,
+        _lenient(raw.get("source"), TypeAdapter(schema.Source)),
+        _lenient(raw.get("robot"), TypeAdapter(schema.Robot)),
         names,
-    )  # fmt: skip
+    )
     for error in errors:
         key, reason = _problem(error, result)
         result.problems.append((key, reason))
@@ -78,7 +80,7 @@ def _names(items: object) -> dict[int, str]:
     }
 
 
-def _lenient(items: object, model: type[M]) -> dict[int, M]:
+def _lenient(items: object, model: TypeAdapter[M]) -> dict[int, M]:
     """Each item that passes ``model``, if need be without the keys at fault."""
     if not isinstance(items, list):
         return {}
@@ -89,7 +91,7 @@ def _lenient(items: object, model: type[M]) -> dict[int, M]:
         attempt = copy.deepcopy(item)
         for _ in range(REPAIR_ROUNDS):
             try:
-                passed[i] = model.model_validate(attempt)
+                passed[i] = model.validate_python(attempt)
                 break
             except ValidationError as exc:
                 if not all(_drop(attempt, e) for e in exc.errors()):
@@ -99,7 +101,7 @@ def _lenient(items: object, model: type[M]) -> dict[int, M]:
 
 def _drop(item: dict[str, Any], error: Any) -> bool:
     """Remove the key ``error`` is about, so its default stands in; False if it has none."""
-    path = _path(error["loc"])
+    path = _path(error["loc"], within_item=True)
     if error["type"] == "missing" or not path or not isinstance(path[-1], str):
         return False
     parent: Any = item
@@ -111,18 +113,32 @@ def _drop(item: dict[str, Any], error: Any) -> bool:
     if not isinstance(parent, dict) or path[-1] not in parent:
         return False
     if error["type"].startswith("union_tag"):
-        return False  # the kinematics' type: everything below it depends on it
+        return False  # the kinematics' or source's type: everything below it depends on it
     del parent[path[-1]]
     return True
 
 
-def _path(loc: tuple[Any, ...]) -> list[Any]:
-    """``loc`` without the tags pydantic inserts for the kinematics' discriminated union."""
-    return [
-        part
-        for k, part in enumerate(loc)
-        if not (part in schema.KINEMATICS_TYPES and k > 0 and loc[k - 1] == "kinematics")
-    ]
+def _path(loc: tuple[Any, ...], within_item: bool = False) -> list[Any]:
+    """``loc`` without the tags pydantic inserts for the discriminated unions (kinematics, source).
+
+    ``within_item``: ``loc`` starts inside one source or robot, not at the file's top.
+    """
+    source_tag_at = 0 if within_item else 2
+    return [part for k, part in enumerate(loc) if not _is_tag(loc, k, source_tag_at)]
+
+
+def _is_tag(loc: tuple[Any, ...], k: int, source_tag_at: int) -> bool:
+    part = loc[k]
+    if part in schema.KINEMATICS_TYPES and k > 0 and loc[k - 1] == "kinematics":
+        return True
+    return part in schema.SOURCE_TYPES and k == source_tag_at and (k == 0 or loc[0] == "source")
+
+
+def _types(path: list[Any]) -> tuple[str, ...]:
+    """The ``type`` choices of the union ``path`` is in: a source's kind or a kinematics family."""
+    if len(path) <= 2 and path[:1] == ["source"]:
+        return schema.SOURCE_TYPES
+    return schema.KINEMATICS_TYPES
 
 
 def _problem(error: Any, validated: Validated) -> tuple[str, str]:
@@ -143,10 +159,10 @@ def _problem(error: Any, validated: Validated) -> tuple[str, str]:
     elif kind == "union_tag_invalid":
         key += ".type"
         bad = error.get("ctx", {}).get("tag", "")
-        choices = ", ".join(schema.KINEMATICS_TYPES)
-        msg = f"must be one of {choices}, not {bad!r}{_near(bad, schema.KINEMATICS_TYPES)}"
+        types = _types(path)
+        msg = f"must be one of {', '.join(types)}, not {bad!r}{_near(bad, types)}"
     elif kind == "union_tag_not_found":
-        msg = f"needs a 'type' ({', '.join(schema.KINEMATICS_TYPES)})"
+        msg = f"needs a 'type' ({', '.join(_types(path))})"
     elif kind == "literal_error":
         expected = error.get("ctx", {}).get("expected", "")
         options = [c.strip(" '") for c in expected.replace(" or ", ", ").split(",")]

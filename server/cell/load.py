@@ -16,7 +16,6 @@ import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
@@ -32,6 +31,23 @@ from .shown import relative_paths
 DEFAULT_COMMAND_NODE = "motion/grp/{robot}/cmd/pos-abs"
 
 
+@dataclass(frozen=True)
+class KindRules:
+    """What the loader checks of a source of one kind (``schema.SOURCE_TYPES``)."""
+
+    check_url: Callable[[str], object]
+    """Raises ValueError for a ``url`` this kind cannot follow."""
+    password_required: bool = False
+    """A ``url`` needs ``password_env`` (else the login is anonymous, where the kind has one)."""
+    default_password: str = ""
+
+
+KIND_RULES: dict[str, KindRules] = {
+    # A ctrlX CORE always needs a login; its factory password is the default.
+    "ctrlx": KindRules(check_base_url, password_required=True, default_password="boschrexroth"),
+}
+
+
 class CellError(Exception):
     """A cell file that cannot be used; ``problems`` are ``(key path, reason)`` pairs."""
 
@@ -43,14 +59,18 @@ class CellError(Exception):
 
 @dataclass(frozen=True)
 class Source:
-    """A data source of the cell, ready to connect to (``url`` None: an embedded mock)."""
+    """A data source of the cell, ready to connect to (``url`` None: an embedded mock).
+
+    ``type`` is its kind (``server.runtime.kinds``); ``options`` the kind's own keys
+    as the cell file gave them (a ``schema.CtrlxSource``, ...), None for the defaults.
+    """
 
     name: str
     url: str | None
+    type: str = schema.DEFAULT_SOURCE_TYPE
+    options: schema.SourceBase | None = None
     user: str = "boschrexroth"
     password: str = field(default="boschrexroth", repr=False)
-    mode: Literal["subscribe", "poll", "get"] | None = None
-    api: Literal["v2", "v1"] = "v2"
     ca: Path | None = None
     insecure: bool = False
     period_s: float | None = None
@@ -187,12 +207,14 @@ class _Builder:
     def _source(self, index: int, spec: schema.Source) -> Source | None:
         key = self._key("source", index)
         problems = len(self.problems)
-        password = "boschrexroth"
-        if spec.url is not None:
+        rules = KIND_RULES[spec.type]
+        password = rules.default_password
+        if spec.url is not None or spec.password_env is not None:
             if spec.password_env is None:
-                self._report(
-                    (f"{key}.password_env", "required with a url (the password comes from it)")
-                )
+                if rules.password_required:
+                    self._report(
+                        (f"{key}.password_env", "required with a url (the password comes from it)")
+                    )
             elif spec.password_env not in self.env:
                 self._report(
                     (
@@ -204,7 +226,7 @@ class _Builder:
                 password = self.env[spec.password_env]
         if spec.url is not None:
             try:
-                check_base_url(spec.url)
+                rules.check_url(spec.url)
             except ValueError as exc:
                 self._report((f"{key}.url", str(exc)))
         ca = None if spec.ca is None else self.where.resolve(spec.ca)
@@ -223,10 +245,10 @@ class _Builder:
         return Source(
             name=spec.name,
             url=spec.url,
+            type=spec.type,
+            options=spec,
             user=spec.user,
             password=password,
-            mode=spec.mode,
-            api=spec.api,
             ca=ca,
             insecure=spec.insecure,
             period_s=None if spec.period_ms is None else spec.period_ms / 1000.0,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
 Unit = Literal["deg", "rad", "mm", "m"]
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
@@ -30,17 +30,14 @@ class Pose(_Strict):
     rpy_deg: Vec3 = [0.0, 0.0, 0.0]
 
 
-class Source(_Strict):
-    """One data layer: a ctrlX device at ``url``, or (no ``url``) an embedded mock."""
+class SourceBase(_Strict):
+    """What every kind of source has: a device at ``url``, or (no ``url``) an embedded mock."""
 
     name: Name
     url: str | None = None
     user: str = "boschrexroth"
     password_env: str | None = None
     """Environment variable holding the password; required with ``url``."""
-    mode: Literal["subscribe", "poll", "get"] | None = None
-    """As ``--mode``; default: the server's setting (subscribe)."""
-    api: Literal["v2", "v1"] = "v2"
     ca: str | None = None
     """PEM file of certificates to trust (relative paths: relative to the cell file)."""
     insecure: bool = False
@@ -50,6 +47,33 @@ class Source(_Strict):
     """Let the page move this source's robots (embedded mocks always may)."""
     replay: str | None = None
     """A recording (MCAP, docs/recording.md) played as this source's data, instead of a device."""
+
+
+class CtrlxSource(SourceBase):
+    """A ctrlX CORE's REST data layer (the default kind)."""
+
+    type: Literal["ctrlx"] = "ctrlx"
+    mode: Literal["subscribe", "poll", "get"] | None = None
+    """As ``--mode``; default: the server's setting (subscribe)."""
+    api: Literal["v2", "v1"] = "v2"
+
+
+DEFAULT_SOURCE_TYPE = "ctrlx"
+
+
+def _source_type(value: object) -> str:
+    """A source's ``type``; a table without one is a ctrlX source."""
+    if isinstance(value, dict):
+        return str(value.get("type", DEFAULT_SOURCE_TYPE))
+    return str(getattr(value, "type", DEFAULT_SOURCE_TYPE))
+
+
+# One member per kind of source, tagged by its ``type`` (see server/runtime/kinds.py).
+Source = Annotated[
+    Annotated[CtrlxSource, Tag("ctrlx")],
+    Discriminator(_source_type),
+]
+SOURCE_TYPES = ("ctrlx",)
 
 
 class Joint(_Strict):

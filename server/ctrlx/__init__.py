@@ -3,6 +3,7 @@
 from .auth import API_PATHS, ApiVersion, LoginBackoff, Token, TokenManager
 from .checks import check_base_url
 from .client import BulkRead, Credentials, DataLayerClient, Traffic
+from .connector import CtrlxConnector
 from .events import SubscriptionSettings
 from .follow import MODES, REPROBE_S, Mode, follow, follow_into
 from .interruptions import RetryPolicy
@@ -30,6 +31,7 @@ __all__ = [
     "BadValue",
     "BulkRead",
     "Credentials",
+    "CtrlxConnector",
     "DataLayerClient",
     "DataLayerError",
     "LoginBackoff",

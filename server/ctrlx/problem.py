@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..sources import SourceError
 
-class DataLayerError(Exception):
+
+class DataLayerError(SourceError):
     """Anything that stops us from reading the data layer; ``str()`` is meant for people."""
 
 

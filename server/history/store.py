@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-from ..ctrlx import Sample
+from ..sources import Sample
 from .ring import SampleRing
 
 MarkKind = Literal["error", "stale", "live", "reload"]

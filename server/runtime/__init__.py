@@ -1,4 +1,4 @@
-"""The running service: one source (mock, client, acquisition) per data layer of the cell.
+"""The running service: one source (connector, mock, acquisition) per source of the cell.
 
 It also swaps in a reloaded cell, restarting only the sources it changes,
 and moves robots on request where that is allowed.
@@ -14,8 +14,8 @@ import numpy as np
 import numpy.typing as npt
 
 from ..cell import Cell, Robot
-from ..ctrlx import DataLayerError
 from ..history import History
+from ..sources import SourceError
 from ..stream import PROTOCOL_VERSIONS, Hub, Message, SourceHealth, cell_message, hello_message
 from .source import (
     RunningSource,
@@ -165,11 +165,11 @@ class Runtime:
                 f"{robot.name} is driven by a controller; start with --allow-commands to move it",
             )
         values = move_target(robot, q)
-        client = self.sources[robot.source].client
+        connector = self.sources[robot.source].connector
         try:
-            await client.write(robot.command_node, "object", {"axsPos": values})
-        except DataLayerError as exc:
-            raise MoveError(502, f"the data layer refused the move: {exc}") from exc
+            await connector.move(robot.command_node, values)
+        except SourceError as exc:
+            raise MoveError(502, f"the controller refused the move: {exc}") from exc
         log.info("robot %s: move to %s commanded", robot.name, np.round(values, 3).tolist())
 
     def report(self) -> dict[str, object]:

@@ -1,4 +1,8 @@
-"""One data source at run time: its embedded mock (if any), client, health and acquisition task."""
+"""One data source at run time: its connector (and embedded mock, if any), health and acquisition.
+
+Whatever the kind of source (``kinds``), what follows a sample is the same:
+one ``Acquisition`` per source, its history tap, its health.
+"""
 
 from __future__ import annotations
 
@@ -7,35 +11,26 @@ import logging
 from dataclasses import dataclass, field
 
 import numpy as np
-from aiohttp import web
 
 from ..cell import Robot, Source
-from ..ctrlx import Credentials, DataLayerClient, DataLayerError, Mode, check_base_url, client_ssl
 from ..history import History
 from ..history.ring import Array, IntArray
-from ..mock_ctrlx import HOLD_S, build_app, serve
-from ..recording import SourceReplay, load_source
+from ..recording import ReplayConnector, SourceReplay, load_source
+from ..sources import Closable, Connector, SourceError
 from ..stream import Acquisition, Hub, PollSettings, SourceHealth
-from .simulation import machine_for
+from .defaults import SourceDefaults
+from .kinds import OPENERS
 
 log = logging.getLogger(__name__)
 
-
-@dataclass(frozen=True)
-class SourceDefaults:
-    """What a cell's source takes from the server's settings unless it says otherwise."""
-
-    period_s: float = 0.02
-    mode: Mode = "subscribe"
-    keepalive_s: float = 1.0
-    timeout_s: float = 5.0
-    allow_commands: bool = False
-    history_s: float = 600.0
-    """Seconds of samples every source keeps (see server.history)."""
-    mock_hold_s: float = HOLD_S
-    """How long an embedded mock holds a commanded pose before its demo cycle resumes."""
-    sample_cost_s: float = 0.0
-    """CPU seconds wasted per sample (a test knob, see Settings.sample_cost_s)."""
+__all__ = [
+    "RunningSource",
+    "SourceDefaults",
+    "fingerprint",
+    "may_command",
+    "mock_hold_s",
+    "start_source",
+]
 
 
 @dataclass
@@ -44,11 +39,11 @@ class RunningSource:
 
     config: Source
     robots: list[Robot]
-    client: DataLayerClient
+    connector: Connector
     health: SourceHealth
     acquisition: Acquisition
     fingerprint: object
-    mock: web.AppRunner | None = None
+    mock: Closable | None = None
     task: asyncio.Task[None] | None = field(default=None, repr=False)
 
     @property
@@ -62,13 +57,13 @@ class RunningSource:
         self.task = asyncio.create_task(self.acquisition.run(), name=name)
 
     async def stop(self) -> None:
-        """Cancel the acquisition, log out, stop the mock."""
+        """Cancel the acquisition, close the connection, stop the mock."""
         if self.task is not None:
             self.task.cancel()
             await asyncio.gather(self.task, return_exceptions=True)
-        await self.client.close()
+        await self.connector.close()
         if self.mock is not None:
-            await self.mock.cleanup()
+            await self.mock.close()
 
 
 def may_command(config: Source, allow_commands: bool) -> bool:
@@ -101,46 +96,31 @@ async def start_source(
     defaults: SourceDefaults,
     history: History | None = None,
 ) -> RunningSource:
-    """Ready to follow ``config`` for ``robots`` (a mock first if it has no URL); then ``begin``."""
+    """Ready to follow ``config`` for ``robots`` (its kind's mock if no URL); then ``begin``."""
     if config.replay is not None:
         return await _start_replay(config, robots, hub, history or History(defaults.history_s))
-    mock: web.AppRunner | None = None
-    url = config.url
-    if url is None:
-        machine = machine_for(robots, defaults.mock_hold_s)
-        mock, url = await serve(build_app(machine), "127.0.0.1", 0)
-        log.info("source %s: embedded mock data layer at %s", config.name, url)
-    client = DataLayerClient(
-        url,
-        Credentials(config.user, config.password),
-        api=config.api,
-        ssl_context=client_ssl(insecure=config.insecure),
-        ca_file=None if config.insecure else config.ca,
-        timeout_s=defaults.timeout_s,
-    )
-    client.warning = check_base_url(url)  # plain http to another machine: credentials in clear
-    health = SourceHealth(name=config.name, url=url, mock=mock is not None)
+    opened = await OPENERS[config.type](config, robots, defaults)
+    if opened.mock is not None:
+        log.info("source %s: embedded mock %s at %s", config.name, config.type, opened.url)
+    health = SourceHealth(name=config.name, url=opened.url, mock=opened.mock is not None)
     period = config.period_s or defaults.period_s
-    poll = PollSettings(
-        period,
-        config.mode or defaults.mode,
-        keepalive_s=defaults.keepalive_s,
-        sample_cost_s=defaults.sample_cost_s,
-    )
+    poll = PollSettings(period, sample_cost_s=defaults.sample_cost_s)
     tap = None if history is None else history.source(config.name, nodes_of(robots), period)
-    acquisition = Acquisition(client, robots, hub, health, poll, tap=tap)
+    acquisition = Acquisition(opened.connector, robots, hub, health, poll, tap=tap)
     return RunningSource(
-        config, robots, client, health, acquisition, fingerprint(config, robots), mock
+        config,
+        robots,
+        opened.connector,
+        health,
+        acquisition,
+        fingerprint(config, robots),
+        opened.mock,
     )
 
 
 def nodes_of(robots: list[Robot]) -> list[str]:
     """Every node the robots read."""
     return [node for robot in robots for node in robot.nodes]
-
-
-REPLAY_CLIENT_URL = "http://127.0.0.1:9"
-"""A replay has a client only so it fits where sources have one; it never connects."""
 
 
 async def _start_replay(
@@ -151,7 +131,7 @@ async def _start_replay(
     try:
         # Reading a long recording takes a while: not on the event loop.
         replay = await asyncio.to_thread(load_source, config.replay, config.name, robots)
-    except DataLayerError as exc:  # the source shows the error; the server and others go on
+    except SourceError as exc:  # the source shows the error; the server and others go on
         log.error("source %s: %s", config.name, exc)
         nodes = tuple(sorted(set(nodes_of(robots))))
         replay = SourceReplay(config.name, nodes, *_empty(len(nodes)))
@@ -159,11 +139,13 @@ async def _start_replay(
     tap.ring.write_many(replay.seq, replay.t, replay.values)
     tap.frozen = True
     log.info("source %s: replaying %d samples of %s", config.name, len(replay.t), config.replay)
-    client = DataLayerClient(REPLAY_CLIENT_URL, Credentials(config.user, config.password))
+    connector = ReplayConnector(replay.play)
     health = SourceHealth(name=config.name, url=f"replay:{config.replay.name}")
     poll = PollSettings(replay.period_s)
-    acquisition = Acquisition(client, robots, hub, health, poll, tap=tap, samples=replay.play)
-    return RunningSource(config, robots, client, health, acquisition, fingerprint(config, robots))
+    acquisition = Acquisition(connector, robots, hub, health, poll, tap=tap)
+    return RunningSource(
+        config, robots, connector, health, acquisition, fingerprint(config, robots)
+    )
 
 
 def _empty(columns: int) -> tuple[Array, IntArray, Array]:

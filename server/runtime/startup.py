@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 
 from ..cell import Cell, CellError, load_cell
+from ..cell.schema import CtrlxSource
 from ..config import Settings
 from ..paths import DEMO_CELL
 from ..recording import replay_cell
@@ -41,15 +42,21 @@ def with_controller(cell: Cell, settings: Settings) -> Cell:
             cell.path or Path("(cell)"),
             [("source", "--ctrlx needs a cell with one source; give each source its url")],
         )
+    first = cell.sources[0]
     source = dataclasses.replace(
-        cell.sources[0],
+        first,
         url=settings.ctrlx_url,
+        type="ctrlx",
+        options=CtrlxSource(
+            name=first.name,
+            url=settings.ctrlx_url,
+            api=settings.ctrlx_api,
+            mode=settings.ctrlx_mode,
+        ),
         user=settings.ctrlx_user,
         password=settings.ctrlx_password.get_secret_value(),
-        api=settings.ctrlx_api,
         ca=settings.ctrlx_ca,
         insecure=settings.insecure,
-        mode=settings.ctrlx_mode,
     )
     return dataclasses.replace(cell, sources=(source,))
 

@@ -1,14 +1,14 @@
 """One acquisition task per data source, shared by every viewer.
 
-It follows the joint nodes of every robot on that source, turns each sample
-into poses once, encodes them once per protocol, and publishes them to the
-hub. Viewer count never changes the data-layer traffic.
+It follows the joint nodes of every robot on that source through the
+source's connector (whatever its protocol), turns each sample into poses
+once, encodes them once per protocol, and publishes them to the hub. Viewer
+count never changes the traffic to the device.
 """
 
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import time
 from collections.abc import Mapping
@@ -17,14 +17,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..cell import Robot
-from ..ctrlx import DataLayerClient, DataLayerError, Mode, Sample, follow_into
 from ..lateness import lateness
+from ..sources import Connector, Sample, SourceError
 from .batches import Job, Outcome, Pending, sample_batch
 from .buckets import Buckets
 from .frames import encode_binary, encode_json
 from .hub import Hub, Message
 from .status import SourceHealth
-from .types import Array, NoTap, RobotSample, SampleStream, SampleTap
+from .types import Array, NoTap, RobotSample, SampleTap
 
 log = logging.getLogger(__name__)
 
@@ -38,9 +38,6 @@ class PollSettings:
     """How often to read, and how long to wait after the source failed."""
 
     period_s: float = 0.02
-    mode: Mode = "subscribe"
-    """How samples are fetched: ``subscribe`` (falls back to ``poll``), ``poll`` or ``get``."""
-    keepalive_s: float = 1.0
     retry_min_s: float = 0.5
     retry_max_s: float = 1.5
     """Kept short: a device that behaves again must be streaming within 2 s."""
@@ -53,20 +50,17 @@ class Acquisition:
 
     def __init__(
         self,
-        client: DataLayerClient,
+        connector: Connector,
         robots: list[Robot],
         hub: Hub,
         health: SourceHealth,
         settings: PollSettings = PollSettings(),
         indices: Mapping[str, int] | None = None,
         tap: SampleTap | None = None,
-        samples: SampleStream | None = None,
     ) -> None:
-        self._client = client
+        self.connector = connector
         self.tap: SampleTap = tap or NoTap()
         """Sees every sample and state change (the source's history)."""
-        self._samples = samples
-        """Samples from elsewhere than the data layer (a replay); default: follow the client."""
         self._hub = hub
         self.health = health
         self.health.period_s = settings.period_s
@@ -109,7 +103,7 @@ class Acquisition:
             seq = self._seq
             try:
                 await self._follow()
-            except DataLayerError as exc:
+            except SourceError as exc:
                 self._report_error(str(exc))
             except Exception as exc:  # a bug must not end the only stream of this source
                 log.exception("data source %s: unexpected error", self.health.name)
@@ -121,20 +115,8 @@ class Acquisition:
 
     async def _follow(self) -> None:
         """Process the source's samples until it fails."""
-        if self._samples is not None:
-            async with contextlib.aclosing(self._samples()) as samples:
-                async for sample in samples:
-                    self._on_sample(sample)
-            return
-        # Samples from a subscription are processed as their bytes arrive, without a task.
-        await follow_into(
-            self._client,
-            self._nodes,
-            self._settings.period_s,
-            self._on_sample,
-            self._settings.mode,
-            keepalive_s=self._settings.keepalive_s,
-        )
+        # A connector may deliver as the bytes arrive (ctrlX's event streams): no task per sample.
+        await self.connector.follow(self._nodes, self._settings.period_s, self._on_sample)
 
     def _check_state(self, _late_s: float) -> None:
         """Publish status when the derived state changes (e.g. stale) and once a second."""
@@ -230,7 +212,8 @@ class Acquisition:
 
     def publish_status(self) -> None:
         """Send this source's status to every viewer now."""
-        self.health.warning = self._client.warning
+        self.health.warning = self.connector.warning
+        self.health.device = self.connector.device
         self._status_sent = time.monotonic()
         self._state_sent = self.health.current_state()
         self.tap.state(self._state_sent, self.health.status().error)

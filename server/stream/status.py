@@ -48,6 +48,8 @@ class SourceHealth:
     """As last marked: ``connecting``, ``connected`` or ``error`` (``stale`` is derived)."""
     error: str | None = None
     warning: str | None = None
+    device: str | None = None
+    """What the device says of itself (a robot or safety mode), as its connector reports it."""
     last_sample: float | None = None
     """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
@@ -163,6 +165,7 @@ class SourceHealth:
             state=state,  # type: ignore[arg-type]
             error=error,
             warning=self.warning,
+            device=self.device,
             last_sample_age_s=age,
             overloaded=self.overloaded,
         )

@@ -2,19 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import AsyncGenerator, Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from ..ctrlx import Sample
+from ..sources import Sample
 
 Array = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-SampleStream = Callable[[], AsyncGenerator[Sample, None]]
-"""Where a source's samples come from when it is no data layer (a replayed recording)."""
 
 
 class SampleTap(Protocol):

@@ -13,6 +13,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, generate_l
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
 from prometheus_client.registry import Collector
 
+from ..ctrlx import CtrlxConnector
 from ..loop_pacing import loop_pacer
 from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
@@ -83,9 +84,10 @@ class RuntimeCollector(Collector):
             live.add_metric([name], float(source_health.live))
         for name, source in runtime.sources.items():
             acquisition = source.acquisition
-            requests.add_metric([name], source.client.traffic.requests)
             errors.add_metric([name], acquisition.failures)
-            logins.add_metric([name], source.client.tokens.logins)
+            if isinstance(source.connector, CtrlxConnector):  # HTTP requests and logins: ctrlX's
+                requests.add_metric([name], source.connector.client.traffic.requests)
+                logins.add_metric([name], source.connector.client.tokens.logins)
             _add(kinematics, [name], acquisition.kinematics_time)
         yield from (published, requests, errors, logins, age, live, kinematics, received, processed)
         held = GaugeMetricFamily(

@@ -188,6 +188,8 @@ class Hud {
 			item.append( element( 'span', 'address', source.url ) );
 			if ( source.error ) item.append( element( 'span', 'error', source.error ) );
 			if ( source.warning ) item.append( element( 'span', 'warning', source.warning ) );
+			// What the device says of itself (a robot's mode, a protective stop), whatever its protocol.
+			if ( source.device ) item.append( element( 'span', 'device', source.device ) );
 			// "overloaded: N of M samples processed, R frames/s per robot": why robots move slower.
 			if ( source.overloaded ) item.append( element( 'span', 'warning', source.overloaded ) );
 			this.sourcesEl.append( item );
@@ -206,7 +208,7 @@ class Hud {
 
 			const state = this.server === 'connected' ? source.state : 'unknown';
 			const pill = element( 'span', `pill pill-${state}`, `controller${many ? ` ${source.name}` : ''}: ${state}` );
-			pill.title = [ source.url, source.error, source.warning ].filter( Boolean ).join( ' — ' );
+			pill.title = [ source.url, source.error, source.device, source.warning ].filter( Boolean ).join( ' — ' );
 			pill.dataset.source = source.name;
 			pills.push( pill );
 

@@ -250,7 +250,7 @@ async def test_an_outage_is_logged_once_per_change_of_state_with_a_count(
             caplog.set_level(logging.INFO)
             mock.state.faults.outage = True
             # Several attempts (the acquisition tries again within 1.5 s).
-            await wait_until(lambda: source.client.failed_starts >= 4, timeout_s=30)
+            await wait_until(lambda: source.connector.client.failed_starts >= 4, timeout_s=30)
             during = [r.getMessage() for r in caplog.records]
             mock.state.faults.outage = False
             await wait_until(lambda: source.health.state == "connected", timeout_s=20)
