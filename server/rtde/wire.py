@@ -161,7 +161,7 @@ def parse_key(text: str) -> Key:
     known = field in KNOWN_TYPES
     if known and width > 1 and index is None:
         raise ValueError(f"{field} has {width} values: name one, e.g. {field}[0]")
-    if known and index is not None and not 0 <= index < width:
+    if known and index is not None and (width == 1 or not 0 <= index < width):
         what = "no index: it is one value" if width == 1 else f"an index 0 to {width - 1}"
         raise ValueError(f"{field} takes {what}, not [{index}]")
     return Key(field, index)
