@@ -19,7 +19,9 @@ from pathlib import Path
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
+from ..mqtt.nodes import check_mqtt_url, parse_node
 from ..protocol import RobotInfo
+from ..rtde.wire import check_rtde_url, parse_key, register_key
 from ..text import plural
 from . import schema
 from ._validate import Validated, validate
@@ -40,11 +42,19 @@ class KindRules:
     password_required: bool = False
     """A ``url`` needs ``password_env`` (else the login is anonymous, where the kind has one)."""
     default_password: str = ""
+    check_node: Callable[[str], object] | None = None
+    """Raises ValueError for a node key this kind cannot read (None: any non-empty string)."""
+    default_unit: schema.Unit | None = None
+    """A joint's unit where the cell leaves it out (None: the schema's, degrees)."""
 
 
 KIND_RULES: dict[str, KindRules] = {
     # A ctrlX CORE always needs a login; its factory password is the default.
     "ctrlx": KindRules(check_base_url, password_required=True, default_password="boschrexroth"),
+    # RTDE has no login; its joint values are SI (rad, m), as are MotionPlus axis positions.
+    "rtde": KindRules(check_rtde_url, check_node=parse_key, default_unit="rad"),
+    # A broker may be anonymous; a user logs in with the password from password_env.
+    "mqtt": KindRules(check_mqtt_url, check_node=parse_node),
 }
 
 
@@ -164,6 +174,7 @@ class _Builder:
 
     def cell(self) -> Cell:
         names = self.valid.names
+        self._kinds = {s.name: s.type for s in self.valid.sources.values()}
         self._unique("source", names["source"])
         self._unique("robot", names["robot"])
         sources = [self._source(i, s) for i, s in self.valid.sources.items()]
@@ -247,7 +258,7 @@ class _Builder:
             url=spec.url,
             type=spec.type,
             options=spec,
-            user=spec.user,
+            user=spec.user or "",
             password=password,
             ca=ca,
             insecure=spec.insecure,
@@ -290,7 +301,11 @@ class _Builder:
 
     def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:
         n = len(built.joint_names)
-        entries = spec.joints
+        kind = self._kinds.get(spec.source, schema.DEFAULT_SOURCE_TYPE)
+        entries = spec.joints or _default_joints(kind, n)
+        if not entries:
+            self._report((f"{key}.joints", "required: one entry per joint of the kinematics"))
+            return None
         if len(entries) != n:
             names = ", ".join(built.joint_names)
             self._report(
@@ -309,15 +324,28 @@ class _Builder:
             return None
         joints: list[Joint] = [None] * n  # type: ignore[list-item]
         ok = True
+        rules = KIND_RULES[kind]
         for k, (entry, slot) in enumerate(zip(entries, order, strict=True)):
             linear = built.linear[slot]
-            if linear != (entry.unit in ("mm", "m")):
-                kind, units = ("linear", "mm or m") if linear else ("rotary", "deg or rad")
+            node = self._node(f"{key}.joints[{k}]", entry, kind)
+            setpoint = None if entry.setpoint is None else entry.setpoint.strip("/")
+            if setpoint is not None and not self._checked(
+                f"{key}.joints[{k}].setpoint", setpoint, rules
+            ):
+                ok = False
+            if node is None:
+                ok = False
+                continue
+            unit = entry.unit
+            if rules.default_unit is not None and "unit" not in entry.model_fields_set:
+                unit = rules.default_unit
+            if linear != (unit in ("mm", "m")):
+                motion, units = ("linear", "mm or m") if linear else ("rotary", "deg or rad")
                 self._report(
                     (
                         f"{key}.joints[{k}].unit",
-                        f"joint {built.joint_names[slot]!r} is {kind}: unit must be {units}, "
-                        f"not {entry.unit!r}",
+                        f"joint {built.joint_names[slot]!r} is {motion}: unit must be {units}, "
+                        f"not {unit!r}",
                     )
                 )
                 ok = False
@@ -326,12 +354,12 @@ class _Builder:
                 ok = False
             joints[slot] = Joint(
                 name=built.joint_names[slot],
-                node=entry.node.strip("/"),
-                source_unit=entry.unit,
+                node=node,
+                source_unit=unit,
                 scale=entry.scale,
                 offset=entry.offset,
                 limits=built.limits[slot],
-                setpoint=None if entry.setpoint is None else entry.setpoint.strip("/"),
+                setpoint=setpoint,
             )
         with_setpoint = [entry.setpoint is not None for entry in entries]
         if any(with_setpoint) and not all(with_setpoint):
@@ -341,6 +369,41 @@ class _Builder:
             )
             ok = False
         return tuple(joints) if ok else None
+
+    def _node(self, key: str, entry: schema.Joint, kind: str) -> str | None:
+        """The joint's node key: ``node``, or on an RTDE source ``field``/``index``/``register``."""
+        keys = {"node": entry.node, "field": entry.field, "register": entry.output_register}
+        given = [name for name, value in keys.items() if value is not None]
+        if len(given) != 1:
+            says = " and ".join(given) if given else "none of them"
+            what = "node, field (with index) or register" if kind == "rtde" else "node"
+            self._report((key, f"give one of {what}, not {says}"))
+            return None
+        if entry.node is None and kind != "rtde":
+            self._report((f"{key}.{given[0]}", "only for RTDE sources: give node"))
+            return None
+        if entry.index is not None and entry.field is None:
+            self._report((f"{key}.index", 'goes with field (e.g. field = "actual_q")'))
+            return None
+        if entry.output_register is not None:
+            node = register_key(entry.output_register)
+        elif entry.field is not None:
+            node = entry.field if entry.index is None else f"{entry.field}[{entry.index}]"
+        else:
+            assert entry.node is not None
+            node = entry.node.strip("/")
+        where = key + (".node" if entry.node is not None else f".{given[0]}")
+        return node if self._checked(where, node, KIND_RULES[kind]) else None
+
+    def _checked(self, key: str, node: str, rules: KindRules) -> bool:
+        if rules.check_node is None:
+            return True
+        try:
+            rules.check_node(node)
+        except ValueError as exc:
+            self._report((key, str(exc)))
+            return False
+        return True
 
     def _joint_order(
         self, key: str, entries: list[schema.Joint], names: tuple[str, ...]
@@ -411,6 +474,16 @@ class _Builder:
                 self._report((f"{key}.demo_targets[{k}]", f"needs {n} values, one per joint"))
                 return None
         return tuple(tuple(t) for t in spec.demo_targets)
+
+
+def _default_joints(kind: str, n: int) -> list[schema.Joint]:
+    """A robot on an RTDE source without a joint list: UR's six joints on ``actual_q``."""
+    if kind != "rtde":
+        return []
+    return [
+        schema.Joint(field="actual_q", index=i, unit="rad", setpoint=f"target_q[{i}]")
+        for i in range(6)
+    ]
 
 
 def _file_order(problem: tuple[str, str]) -> tuple[int, int]:

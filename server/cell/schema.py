@@ -58,6 +58,27 @@ class CtrlxSource(SourceBase):
     api: Literal["v2", "v1"] = "v2"
 
 
+class RtdeSource(SourceBase):
+    """A Universal Robots controller's RTDE interface: ``rtde://HOST[:PORT]`` (port 30004).
+
+    RTDE has no login: ``user``, ``password_env`` and ``ca`` do not apply.
+    """
+
+    type: Literal["rtde"]
+    frequency_hz: Annotated[float, Field(gt=0.0, le=500.0)] = 500.0
+    """What the output recipe asks for (e-Series: up to 500 Hz; CB3: 125 Hz)."""
+
+
+class MqttSource(SourceBase):
+    """Values on an MQTT broker: ``mqtt://HOST[:PORT]`` (1883) or ``mqtts://`` (TLS, 8883)."""
+
+    type: Literal["mqtt"]
+    user: str | None = None  # type: ignore[assignment]
+    """Username; none: an anonymous session (the password, if any, from ``password_env``)."""
+    client_id: Annotated[str, Field(max_length=64)] | None = None
+    """The MQTT client identifier; default: one the broker assigns."""
+
+
 DEFAULT_SOURCE_TYPE = "ctrlx"
 
 
@@ -70,16 +91,30 @@ def _source_type(value: object) -> str:
 
 # One member per kind of source, tagged by its ``type`` (see server/runtime/kinds.py).
 Source = Annotated[
-    Annotated[CtrlxSource, Tag("ctrlx")],
+    Annotated[CtrlxSource, Tag("ctrlx")]
+    | Annotated[RtdeSource, Tag("rtde")]
+    | Annotated[MqttSource, Tag("mqtt")],
     Discriminator(_source_type),
 ]
-SOURCE_TYPES = ("ctrlx",)
+SOURCE_TYPES = ("ctrlx", "rtde", "mqtt")
 
 
 class Joint(_Strict):
     """A joint's data-layer node; SI value = (value x scale + offset) converted from ``unit``."""
 
-    node: Annotated[str, Field(min_length=1)]
+    # ``register`` is an attribute of pydantic's models: the key is an alias.
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+    node: Annotated[str, Field(min_length=1)] | None = None
+    """The node key (a data-layer path, ``actual_q[2]``, ``topic#/pointer``); or, on an RTDE
+    source, ``field`` (and ``index``) or ``register`` instead."""
+    field: Annotated[str, Field(min_length=1)] | None = None
+    """RTDE: an output field: ``actual_q`` (with ``index``), ``output_double_register_24``."""
+    index: Annotated[int, Field(ge=0, le=5)] | None = None
+    """RTDE: which value of a vector ``field`` (0 to 5)."""
+    output_register: Annotated[int | None, Field(alias="register", ge=0, le=255)] = None
+    """``register`` (RTDE): ``output_double_register_<register>``, where a URScript program
+    copies an external axis position (docs/cell.md)."""
     unit: Unit = "deg"
     scale: Finite = 1.0
     offset: Finite = 0.0
@@ -173,7 +208,8 @@ class Robot(_Strict):
     source: str
     base: Pose = Pose()
     kinematics: Kinematics
-    joints: list[Joint] = Field(min_length=1, max_length=32)
+    joints: list[Joint] = Field(default_factory=list, max_length=32)
+    """One per joint of the kinematics; an RTDE source's robot may leave it out (``actual_q``)."""
     mesh_dir: str | None = None
     """Folder of ``<link>.glb`` meshes (not for URDF, whose visuals are converted)."""
     command_node: str | None = None

@@ -4,7 +4,9 @@ The controller sends a data package every 2 ms (e-Series; 8 ms on CB3); the
 frames go out at the source's period (20 ms). Packages are therefore kept
 raw as they arrive, newest wins, and one is unpacked and delivered at most
 once per period: as soon as it arrives if the period has passed, else when
-it has (``received`` counts the packages it stands for). A drop is ridden
+it has. ``received`` counts the source periods a sample stands for (by the
+controller's clock), not the packages: 500 Hz packages for a 50 Hz source are
+the design, not an overload; a delivery two periods late stands for two. A drop is ridden
 out by reconnecting at once, then with growing delays; only a controller
 that stays away for ``give_up_s`` (or stops sending for ``stall_s``) becomes
 a SourceError. The robot and safety modes are kept in ``device``.
@@ -19,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from ..lateness import Mark, lateness
-from ..sources import Sample, SourceError
+from ..sources import Sample, SourceError, Throttle
 from . import wire
 from .link import Controller, LinkClosed, RtdeLink, handshake
 from .recipe import recipe_fields
@@ -69,7 +71,6 @@ class RtdeConnector:
         self.controller: Controller | None = None
         self._link: RtdeLink | None = None
         self._newest: bytes | None = None
-        self._count = 0
         self.packages = 0
         """Data packages received in all (they outnumber the samples delivered)."""
         self._up = False
@@ -146,12 +147,12 @@ class RtdeConnector:
             emit.cancel()
             self._emit = None
 
-    _emit: Callable[[bytes, int], None] | None = None
+    _emit: Callable[[bytes], None] | None = None
 
     def _on_data(self, payload: bytes, count: int) -> None:
         self.packages += count
         if self._emit is not None:
-            self._emit(payload, count)
+            self._emit(payload)
 
     async def _watch(self, link: RtdeLink) -> None:
         """Close a link that stopped sending: a stalled controller looks like a live socket."""
@@ -193,7 +194,6 @@ class _Emitter:
     ) -> None:
         recipe = controller.recipe
         self.recipe = recipe
-        self.period_s = period_s
         self.deliver = deliver
         self.connector = connector
         self.controller = controller
@@ -212,37 +212,33 @@ class _Emitter:
         self.offset_s: float | None = None
         """Our clock minus the controller's (its timestamp counts from its boot): least seen."""
         self.modes: tuple[float, float] | None = None
+        self.period_s = period_s
         self.newest: bytes | None = None
-        self.count = 0
-        self.last = 0.0
-        self.handle: asyncio.TimerHandle | None = None
-        self.loop = asyncio.get_running_loop()
+        self.stamp: float | None = None
+        """The controller time of the last sample delivered."""
+        self.throttle = Throttle(period_s, self.emit)
 
-    def offer(self, payload: bytes, count: int) -> None:
-        self.newest, self.count = payload, self.count + count
-        if self.handle is not None:
-            return
-        wait = self.last + self.period_s - self.loop.time()
-        if wait <= 0.0:
-            self.emit()
-        else:
-            self.handle = self.loop.call_later(wait, self.emit)
+    def offer(self, payload: bytes) -> None:
+        self.newest = payload
+        self.throttle.offer()
 
     def emit(self) -> None:
-        self.handle = None
-        payload, count = self.newest, self.count
+        payload = self.newest
         if payload is None:
             return
-        self.newest, self.count, self.last = None, 0, self.loop.time()
+        self.newest = None
         try:
             flat = self.recipe.unpack(payload)
         except wire.WireError as exc:
             log.warning("%s: %s", self.connector.settings.where, exc)
             return
         now = time.time()
-        t_source = now
+        t_source, received = now, 1
         if self.at_time is not None:
             stamp = flat[self.at_time]
+            if self.stamp is not None:
+                received = max(1, round((stamp - self.stamp) / self.period_s))
+            self.stamp = stamp
             offset = now - stamp
             if self.offset_s is None or offset < self.offset_s:
                 self.offset_s = offset  # the least delay seen is the closest to the true offset
@@ -256,9 +252,7 @@ class _Emitter:
             if modes != self.modes:  # the text changes rarely: made only then
                 self.modes = modes
                 self.connector.device = modes_text(self.controller, *modes)
-        self.deliver(Sample(t_source, values, count))
+        self.deliver(Sample(t_source, values, received))
 
     def cancel(self) -> None:
-        if self.handle is not None:
-            self.handle.cancel()
-            self.handle = None
+        self.throttle.cancel()

@@ -17,6 +17,7 @@ from __future__ import annotations
 import re
 import struct
 from dataclasses import dataclass
+from urllib.parse import urlsplit
 
 PORT = 30004
 PROTOCOL_VERSION = 2
@@ -198,3 +199,22 @@ KNOWN_TYPES: dict[str, str] = {
 }
 """Output fields of the RTDE guide this code knows the type of (for checking a cell's keys
 and for the mock); the controller's setup reply is what the client trusts."""
+
+
+def rtde_address(url: str) -> tuple[str, int]:
+    """``(host, port)`` of ``rtde://HOST[:PORT]`` (port 30004 by default); ValueError if not one."""
+    parts = urlsplit(url)
+    if parts.scheme != "rtde" or not parts.hostname:
+        raise ValueError(f"{url!r} is no RTDE address: write rtde://HOST or rtde://HOST:PORT")
+    if parts.path not in ("", "/") or parts.query or parts.fragment or parts.username:
+        raise ValueError(f"{url!r}: an RTDE address is rtde://HOST[:PORT], nothing more")
+    try:
+        port = parts.port or PORT
+    except ValueError as exc:
+        raise ValueError(f"{url!r}: {exc}") from None
+    return parts.hostname, port
+
+
+def check_rtde_url(url: str) -> None:
+    """Raises ValueError unless ``url`` is ``rtde://HOST[:PORT]``."""
+    rtde_address(url)

@@ -9,5 +9,6 @@ for every kind. Nothing here knows a protocol.
 from .connector import Closable, Connector
 from .errors import SourceError
 from .sample import Sample
+from .throttle import Throttle
 
-__all__ = ["Closable", "Connector", "Sample", "SourceError"]
+__all__ = ["Closable", "Connector", "Sample", "SourceError", "Throttle"]

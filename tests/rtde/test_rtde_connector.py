@@ -96,20 +96,21 @@ async def test_packages_arrive_at_500_hz_and_are_delivered_newest_only_once_per_
     await asyncio.sleep(0.1)
     samples = list(follower.samples)
     stamps: list[float] = [s.values["timestamp"] for s in samples]
-    # Every package the mock sent is counted once, in the sample that stands for it ...
-    assert sum(s.received for s in samples) == follower.connector.packages == mock.sent
-    # ... and each is a package of the controller's 2 ms clock, newest of those it stands for.
+    # Every package the mock sent arrived ...
+    assert follower.connector.packages == mock.sent
+    # ... each delivered is a package of the controller's 2 ms clock, and stands for the
+    # 20 ms source periods since the one before (one, unless the delivery was late).
     assert all(abs(t / 0.002 - round(t / 0.002)) < 1e-6 for t in stamps)
     for before, after, sample in zip(stamps, stamps[1:], samples[1:], strict=False):
-        assert sample.received <= round((after - before) / 0.002)
+        assert sample.received == max(1, round((after - before) / 0.02))
     # Never one package twice, and at most one delivery per 20 ms period (the loop's timers
     # may fire up to its clock resolution early).
     assert len(set(stamps)) == len(stamps)
     at = follower.delivered
     resolution = time.get_clock_info("monotonic").resolution
     assert min(b - a for a, b in zip(at, at[1:], strict=False)) >= 0.02 - resolution - 1e-6
-    # Packages came at 500 Hz: somewhere they were 2 ms apart.
-    assert max(s.received for s in samples) > 1
+    # Packages came at 500 Hz: ten or so stood behind each delivery.
+    assert mock.sent > 5 * len(samples)
 
 
 async def test_source_time_follows_the_controller_clock(

@@ -1,0 +1,195 @@
+"""Values on an MQTT broker as a linkview source (``type = "mqtt"``), through aiomqtt.
+
+Each topic the robots name is subscribed to once; each message updates the
+values of the nodes on its topic (the number itself, or found in its JSON by
+a pointer; a payload that does not hold it becomes that node's error, so only
+its robot shows it). The newest values are delivered at most once per period
+(``Throttle``). MQTT carries no sample time: the receive time stands in. A
+retained message is the broker's copy of the last value, of unknown age: its
+topic is named in ``warning`` until a live message arrives. A lost broker is
+ridden out by reconnecting with growing delays; only one that stays away for
+``give_up_s`` is a SourceError. ``received`` counts the messages of the busiest
+topic since the last delivery (a robot with a topic per joint gets one message
+per topic each cycle).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import ssl
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import aiomqtt
+
+from ..ctrlx import client_ssl
+from ..lateness import Mark, lateness
+from ..sources import Sample, SourceError, Throttle
+from .nodes import Node, PayloadError, mqtt_address, parse_node, parsed, value_in
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MqttSettings:
+    """How to reach a broker and how patient to be with it."""
+
+    url: str
+    user: str | None = None
+    password: str | None = None
+    ca: Path | None = None
+    insecure: bool = False
+    client_id: str | None = None
+    timeout_s: float = 5.0
+    give_up_s: float = 1.5
+    """Reconnecting after a drop for this long: report the broker as down."""
+
+
+class NoMessageYet(SourceError):
+    """A topic that has had no message since the subscription."""
+
+
+class MqttConnector:
+    """Follows ``topic`` and ``topic#/pointer`` nodes on one broker."""
+
+    device: str | None = None
+
+    def __init__(self, settings: MqttSettings) -> None:
+        self.settings = settings
+        self.host, self.port, self.tls = mqtt_address(settings.url)
+        self.warning: str | None = None
+        self.messages = 0
+        """Messages received on the followed topics, in all."""
+
+    def _client(self) -> aiomqtt.Client:
+        context: ssl.SSLContext | None = None
+        if self.tls:
+            verify = client_ssl(self.settings.ca, self.settings.insecure)
+            context = verify if isinstance(verify, ssl.SSLContext) else ssl.create_default_context()
+            if verify is False:
+                context.check_hostname, context.verify_mode = False, ssl.CERT_NONE
+        return aiomqtt.Client(
+            self.host,
+            self.port,
+            username=self.settings.user or None,
+            password=self.settings.password if self.settings.user else None,
+            identifier=self.settings.client_id,
+            tls_context=context,
+            timeout=self.settings.timeout_s,
+            keepalive=10,
+        )
+
+    async def follow(
+        self, nodes: list[str], period_s: float, deliver: Callable[[Sample], None]
+    ) -> None:
+        """Deliver the newest values of ``nodes`` at most once per ``period_s``."""
+        state = _Topics({node: parse_node(node) for node in nodes}, deliver, self)
+        throttle = Throttle(period_s, state.emit)
+        down: Mark | None = None
+        attempt = 0
+        ever_up = False
+        try:
+            while True:
+                up = False
+                try:
+                    async with self._client() as client:
+                        for topic in state.topics:
+                            await client.subscribe(topic)
+                        up = ever_up = True
+                        topics = len(state.topics)
+                        log.info("%s: subscribed to %d topics", self.settings.url, topics)
+                        async for message in client.messages:
+                            state.received(message)
+                            throttle.offer()
+                except aiomqtt.MqttError as exc:
+                    why = f"{self.settings.url}: {exc}"
+                    if up:
+                        down, attempt = None, 0
+                    if not ever_up:
+                        raise SourceError(why) from None  # never reached: nothing to ride out
+                    if down is None:
+                        log.info("%s; reconnecting", why)
+                        down = lateness().mark()
+                    elif down.on_time_s() > self.settings.give_up_s:
+                        raise SourceError(why) from None
+                    await asyncio.sleep(min(0.5, 0.05 * 2.0**attempt))
+                    attempt += 1
+        finally:
+            throttle.cancel()
+
+    async def move(self, command_node: str, values: list[float]) -> None:
+        """Refused: linkview only reads values on a broker."""
+        raise SourceError(f"{self.settings.url}: moves are not supported over MQTT")
+
+    async def close(self) -> None:
+        """Nothing held between follows: each follow closes its own session."""
+
+
+class _Topics:
+    """The newest value of every node, by topic; which topics only had a retained message."""
+
+    def __init__(
+        self, nodes: dict[str, Node], deliver: Callable[[Sample], None], owner: MqttConnector
+    ) -> None:
+        self.topics: dict[str, list[tuple[str, Node]]] = {}
+        for key, node in nodes.items():
+            self.topics.setdefault(node.topic, []).append((key, node))
+        self.values: dict[str, float | Exception] = {
+            key: NoMessageYet(f"{node.topic}: no message since linkview subscribed")
+            for key, node in nodes.items()
+        }
+        self.retained: set[str] = set()
+        self.deliver = deliver
+        self.owner = owner
+        self.counts: dict[str, int] = {}
+        """Messages per topic since the last delivery: a publish cycle is one per topic."""
+        self.fresh = False
+
+    def received(self, message: aiomqtt.Message) -> None:
+        topic = message.topic.value
+        on_topic = self.topics.get(topic)
+        if on_topic is None:
+            return
+        payload = message.payload
+        if not isinstance(payload, bytes | bytearray):
+            payload = str(payload).encode()
+        self.owner.messages += 1
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+        self.fresh = True
+        document: object = None
+        try:
+            if any(node.pointer is not None for _, node in on_topic):
+                document = parsed(payload, topic)
+            for key, node in on_topic:
+                try:
+                    self.values[key] = value_in(node, payload, document)
+                except PayloadError as exc:
+                    self.values[key] = exc
+        except PayloadError as exc:
+            for key, _ in on_topic:
+                self.values[key] = exc
+        before = len(self.retained)
+        if message.retain:
+            self.retained.add(topic)
+        else:
+            self.retained.discard(topic)
+        if len(self.retained) != before:
+            self.owner.warning = (
+                "last value, age unknown (retained message on "
+                + ", ".join(sorted(self.retained))
+                + ")"
+                if self.retained
+                else None
+            )
+
+    def emit(self) -> None:
+        if not self.fresh:
+            return
+        self.fresh = False
+        # The publisher's cycles this sample stands for: one, unless we fell behind.
+        received = max(self.counts.values())
+        self.counts.clear()
+        self.deliver(Sample(time.time(), dict(self.values), received))
