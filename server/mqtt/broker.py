@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import getpass
 import shutil
 import socket
 import tempfile
@@ -59,6 +60,9 @@ class Mosquitto:
             "persistence false",
             "log_dest stderr",
             "log_type error",
+            # Started as root, Mosquitto would become the user "mosquitto", who cannot read
+            # our temporary files: it stays whoever started it.
+            f"user {getpass.getuser()}",
         ]
         if self.passwords is None:
             lines.append("allow_anonymous true")
