@@ -20,6 +20,10 @@ PASSWORD_ENV = "LINKVIEW_CTRLX_PASSWORD"
 
 def main(argv: list[str]) -> int:
     """Run ``discover`` with ``argv``; returns the exit status."""
+    if any(arg.startswith("rtde://") for arg in argv):  # a UR controller: its own options
+        from .rtde import main as rtde_main
+
+        return rtde_main(argv)
     parser = argparse.ArgumentParser(
         prog="python -m server discover",
         description="Browse a ctrlX CORE's data layer for its motion axes and kinematics, list "

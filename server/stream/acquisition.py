@@ -195,12 +195,13 @@ class Acquisition:
     def _setpoints(robot: Robot, sample: Sample) -> Array | None:
         """The setpoint values, if the robot has setpoint nodes and all of them were read.
 
-        A setpoint that cannot be read costs the ghost, never the actual pose.
+        A setpoint that cannot be read costs the ghost, never the actual pose; nor does one
+        a sample lacks (a recording keeps the joints' nodes, not their setpoints').
         """
         if not robot.setpoint_nodes:
             return None
-        read = [sample.values[n] for n in robot.setpoint_nodes]
-        if any(isinstance(v, Exception) for v in read):
+        read = [sample.values.get(n) for n in robot.setpoint_nodes]
+        if any(v is None or isinstance(v, Exception) for v in read):
             return None
         return np.array(read, dtype=np.float64)
 

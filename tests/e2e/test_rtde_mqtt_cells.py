@@ -1,0 +1,229 @@
+"""RTDE and MQTT sources through the whole server: health, the page's status, recording, replay."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+from collections.abc import AsyncIterator
+from pathlib import Path
+from typing import Any
+
+import aiohttp
+import aiomqtt
+import numpy as np
+import pytest
+from websockets.asyncio.client import connect
+
+from server.config import Settings
+from server.mock_ctrlx import Machine
+from server.mock_rtde import RtdeMock, demo_groups
+from server.mqtt import Mosquitto
+from tests.conftest import free_port, running_server
+from tests.e2e.test_faults import health_of, wait_for_health
+from tests.e2e.test_recording import read
+
+ROOT = Path(__file__).resolve().parents[2]
+MIXED = ROOT / "cells" / "examples" / "ur_rtde_mqtt.toml"
+UR5E_DH = (
+    'kinematics = { type = "dh", d = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6], '
+    "a = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0], alpha_deg = [90.0, 0.0, 0.0, 90.0, -90.0, 0.0] }"
+)
+TWO_AXES = """[robot.kinematics]
+type = "axis_group"
+axes = [{{ name = "tilt" }}, {{ name = "turn", parent = "tilt" }}]
+"""
+
+
+def rtde_cell(folder: Path, url: str) -> Path:
+    """A UR5e (no joint list), the positioner on registers 42/43, and one on a missing register."""
+    path = folder / "ur.toml"
+    path.write_text(
+        f"""
+[[source]]
+name = "ur"
+type = "rtde"
+url = "{url}"
+
+[[robot]]
+name = "ur5e"
+source = "ur"
+{UR5E_DH}
+
+[[robot]]
+name = "positioner"
+source = "ur"
+joints = [{{ register = 42 }}, {{ field = "output_double_register_43" }}]
+{TWO_AXES.format()}
+[[robot]]
+name = "lost"
+source = "ur"
+joints = [{{ register = 42 }}, {{ register = 60 }}]
+{TWO_AXES.format()}"""
+    )
+    return path
+
+
+@pytest.fixture
+async def ur() -> AsyncIterator[RtdeMock]:
+    mock = RtdeMock(Machine(demo_groups()))
+    await mock.start("127.0.0.1", free_port())
+    try:
+        yield mock
+    finally:
+        await mock.close()
+
+
+def source(health: dict[str, Any], name: str) -> dict[str, Any]:
+    found: dict[str, Any] = next(s for s in health["sources"] if s["name"] == name)
+    return found
+
+
+async def status_on_the_page(base: str, name: str, wanted: str) -> dict[str, Any]:
+    """The first ``status`` message for source ``name`` whose device text contains ``wanted``."""
+    async with connect(base.replace("http", "ws") + "/ws") as ws, asyncio.timeout(10):
+        while True:
+            msg = json.loads(await ws.recv())
+            for status in msg.get("sources", []) if msg["type"] == "status" else []:
+                if status["name"] == name and wanted in (status.get("device") or ""):
+                    return dict(status)
+
+
+async def test_a_ur_controller_through_the_server(tmp_path: Path, ur: RtdeMock) -> None:
+    settings = Settings(cell=rtde_cell(tmp_path, ur.url))
+    async with running_server(settings) as base:
+        health = await wait_for_health(
+            base, lambda h: source(h, "ur")["robots"].get("ur5e", {}).get("frames", 0) > 20
+        )
+        ur_source = source(health, "ur")
+        assert ur_source["device"] == "URControl 5.15.0.0: robot mode RUNNING, safety mode NORMAL"
+        robots = ur_source["robots"]
+        assert robots["ur5e"]["ok"] and robots["positioner"]["ok"]
+        # The register the controller lacks is named on its robot only.
+        assert not robots["lost"]["ok"]
+        assert "output_double_register_60" in robots["lost"]["error"]
+        assert "NOT_FOUND" in robots["lost"]["error"]
+
+        # The joints the page gets are the controller's actual_q (radians, in UR's order).
+        async with aiohttp.ClientSession() as http, http.get(f"{base}/api/robots") as r:
+            ur5e = next(x for x in await r.json() if x["name"] == "ur5e")
+        assert [j["node"] for j in ur5e["joints"]] == [f"actual_q[{i}]" for i in range(6)]
+        assert [j["setpoint"] for j in ur5e["joints"]] == [f"target_q[{i}]" for i in range(6)]
+        assert {j["source_unit"] for j in ur5e["joints"]} == {"rad"}
+
+        # A protective stop shows in health and in the source's status the page draws.
+        ur.protective_stop()
+        await wait_for_health(base, lambda h: "PROTECTIVE" in (source(h, "ur")["device"] or ""))
+        status = await status_on_the_page(base, "ur", "PROTECTIVE_STOP")
+        assert status["device"].endswith("robot mode RUNNING, safety mode PROTECTIVE_STOP")
+        ur.protective_stop(False)
+
+        # Dropped: streaming again within 2 s of the controller taking connections again.
+        before = source(await health_of(base), "ur")["robots"]["ur5e"]["frames"]
+        ur.drop(down_s=0.5)
+        back_at = time.monotonic() + 0.5
+        await wait_for_health(
+            base, lambda h: source(h, "ur")["robots"]["ur5e"]["frames"] > before + 25
+        )
+        assert time.monotonic() - back_at < 2.0
+
+
+def mqtt_cell(folder: Path, url: str) -> Path:
+    path = folder / "mqtt.toml"
+    path.write_text(
+        f"""
+[[source]]
+name = "broker"
+type = "mqtt"
+url = "{url}"
+
+[[robot]]
+name = "table"
+source = "broker"
+joints = [{{ node = "cell/table/tilt", unit = "deg" }}, {{ node = "cell/table/state#/turn" }}]
+{TWO_AXES.format()}"""
+    )
+    return path
+
+
+async def test_a_malformed_payload_is_named_in_health_and_a_good_one_streams(
+    tmp_path: Path,
+) -> None:
+    broker = Mosquitto(port=free_port())
+    await broker.start()
+    try:
+        settings = Settings(cell=mqtt_cell(tmp_path, broker.url))
+        async with running_server(settings) as base:
+            async with aiomqtt.Client(broker.host, broker.port) as client:
+
+                async def send(tilt: bytes) -> None:
+                    await client.publish("cell/table/tilt", tilt)
+                    await client.publish("cell/table/state", b'{"turn": 90.0}')
+
+                async def robot() -> dict[str, Any]:
+                    health = await health_of(base)
+                    table: dict[str, Any] = source(health, "broker")["robots"].get("table", {})
+                    return table
+
+                async with asyncio.timeout(15):
+                    while "not a number" not in ((await robot()).get("error") or ""):
+                        await send(b"12,5")
+                        await asyncio.sleep(0.05)
+                    error = (await robot())["error"]
+                    assert "cell/table/tilt: payload '12,5' is not a number" in error
+                    while not (await robot()).get("ok"):
+                        await send(b"12.5")
+                        await asyncio.sleep(0.05)
+            async with aiohttp.ClientSession() as http, http.get(f"{base}/api/robots") as r:
+                (table,) = await r.json()
+            # The newest raw values, and in SI: degrees by the cell's default unit.
+            assert [j["value"] for j in table["joints"]] == [12.5, 90.0]
+            si = [j["value_si"] for j in table["joints"]]
+            np.testing.assert_allclose(si, np.radians([12.5, 90.0]))
+    finally:
+        await broker.close()
+
+
+async def test_the_mixed_cell_streams_every_robot_records_and_replays(tmp_path: Path) -> None:
+    robots = ("ur5e", "positioner", "kin12", "iiwa7")
+    async with running_server(Settings(cell=MIXED)) as base, aiohttp.ClientSession() as http:
+        await wait_for_health(
+            base,
+            lambda h: (
+                all(r.get("frames", 0) > 100 for s in h["sources"] for r in s["robots"].values())
+                and len([r for s in h["sources"] for r in s["robots"]]) == len(robots)
+            ),
+            timeout_s=30,
+        )
+        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+            assert r.status == 200
+            saved = tmp_path / "saved.mcap"
+            saved.write_bytes(await r.read())
+    _, messages = read(saved)
+    counts = {robot: len(messages[f"/{robot}/joints"]) for robot in robots}
+    # Every robot at the frame cadence of the ctrlX source, recorded over the same time:
+    # RTDE's 500 Hz and the broker's messages come out at the same 50 Hz.
+    for robot in ("ur5e", "positioner", "kin12"):
+        assert 0.8 < counts[robot] / counts["iiwa7"] < 1.25, counts
+    stamps = [orjson_t(data) for _, data in messages["/ur5e/joints"]]
+    assert np.median(np.diff(stamps)) == pytest.approx(0.02, abs=0.002)
+
+    async with running_server(Settings(replay=saved, cell=MIXED)) as base:
+        health = await wait_for_health(
+            base,
+            lambda h: (
+                all(
+                    s["robots"].get(r, {}).get("frames", 0) > 10
+                    for s in h["sources"]
+                    for r in robots
+                    if r in s["robots"]
+                )
+                and sum(len(s["robots"]) for s in h["sources"]) == len(robots)
+            ),
+        )
+        assert {s["url"] for s in health["sources"]} == {"replay:saved.mcap"}
+
+
+def orjson_t(data: bytes) -> float:
+    value: float = json.loads(data)["t_source"]
+    return value
