@@ -61,27 +61,49 @@ class RtdeLink(asyncio.Protocol):
         self._transport = cast(asyncio.Transport, transport)
 
     def data_received(self, data: bytes) -> None:
-        self._buffer += data
-        try:
-            packages = wire.split(self._buffer)
-        except wire.WireError as exc:
-            self._fail(LinkClosed(f"{self.where}: {exc}"))
-            return
-        newest: bytes | None = None
-        count = 0
-        for kind, payload in packages:
+        # The usual read holds whole packages: parsed where it lies, no copy but the newest.
+        buffer: bytes | bytearray = data
+        if self._buffer:
+            self._buffer += data
+            buffer = self._buffer
+        start, end = 0, len(buffer)
+        newest, count = -1, 0
+        header = wire.HEADER
+        while end - start >= 3:
+            size, kind = header.unpack_from(buffer, start)
+            if size < 3:
+                self._fail(
+                    LinkClosed(f"{self.where}: package size {size} is shorter than its header")
+                )
+                return
+            if end - start < size:
+                break
             if kind == wire.DATA_PACKAGE:
-                newest, count = payload, count + 1
-            elif kind == wire.TEXT_MESSAGE:
-                text = wire.read_text_message(payload)
-                log.info("%s says: %s", self.where, text)
-                self.messages = [*self.messages[-4:], text]
+                newest, count = start, count + 1
             else:
-                waiting = self._waiting.pop(kind, None)
-                if waiting is not None and not waiting.done():
-                    waiting.set_result(payload)
-        if newest is not None and self.on_data is not None:
-            self.on_data(newest, count)
+                self._control(kind, bytes(buffer[start + 3 : start + size]))
+            start += size
+        payload = None
+        if newest >= 0:
+            size = header.unpack_from(buffer, newest)[0]
+            payload = bytes(buffer[newest + 3 : newest + size])
+        if buffer is self._buffer:
+            del self._buffer[:start]
+        elif start < end:
+            self._buffer += data[start:]
+        if payload is not None and self.on_data is not None:
+            self.on_data(payload, count)
+
+    def _control(self, kind: int, payload: bytes) -> None:
+        """A package other than data: a text message, or the reply a request waits for."""
+        if kind == wire.TEXT_MESSAGE:
+            text = wire.read_text_message(payload)
+            log.info("%s says: %s", self.where, text)
+            self.messages = [*self.messages[-4:], text]
+            return
+        waiting = self._waiting.pop(kind, None)
+        if waiting is not None and not waiting.done():
+            waiting.set_result(payload)
 
     def connection_lost(self, exc: Exception | None) -> None:
         why = f": {exc}" if exc else ""

@@ -100,22 +100,6 @@ def package(kind: int, payload: bytes = b"") -> bytes:
     return HEADER.pack(HEADER.size + len(payload), kind) + payload
 
 
-def split(buffer: bytearray) -> list[tuple[int, bytes]]:
-    """The complete packages at the start of ``buffer`` as ``(type, payload)``; consumed."""
-    out: list[tuple[int, bytes]] = []
-    start, end = 0, len(buffer)
-    while end - start >= HEADER.size:
-        size, kind = HEADER.unpack_from(buffer, start)
-        if size < HEADER.size:
-            raise WireError(f"package size {size} is shorter than its header")
-        if end - start < size:
-            break
-        out.append((kind, bytes(buffer[start + HEADER.size : start + size])))
-        start += size
-    del buffer[:start]
-    return out
-
-
 def text_message(message: str, source: str = "linkview", level: int = 3) -> bytes:
     """A protocol-2 text message (``level`` 0 exception, 1 error, 2 warning, 3 info)."""
     msg, src = message.encode()[:255], source.encode()[:255]

@@ -215,3 +215,21 @@ def test_node_keys_are_checked_against_the_rtde_guide() -> None:
     ):
         with pytest.raises(ValueError, match=reason):
             parse_key(bad)
+
+
+async def test_packages_split_anywhere_across_reads_are_put_back_together() -> None:
+    from server.rtde import RtdeLink, wire
+
+    packages = [wire.package(wire.DATA_PACKAGE, bytes([1]) + bytes([i]) * 8) for i in range(5)]
+    packages.insert(2, wire.text_message("hello", "controller"))
+    stream = b"".join(packages)
+    for cut in range(1, len(stream)):
+        link = RtdeLink("rtde://test")
+        got: list[tuple[bytes, int]] = []
+        link.on_data = lambda payload, count, got=got: got.append((payload, count))
+        link.data_received(stream[:cut])
+        link.data_received(stream[cut:])
+        # Every data package is counted once; the newest of each read is handed on.
+        assert sum(count for _, count in got) == 5
+        assert got[-1][0] == bytes([1]) + bytes([4]) * 8
+        assert link.messages == ["controller: hello"]

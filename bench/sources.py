@@ -1,0 +1,223 @@
+"""Server CPU per robot-sample by kind of source: ctrlX, RTDE (500 Hz in, 50 Hz out), MQTT.
+
+For each kind and K: K robots, each on a source of its own, served by mocks in
+processes of their own (so their CPU is not the server's): the ctrlX mock
+(``python -m server.mock_ctrlx``, an LBR iiwa's 7 axes subscribed at 50 Hz),
+the RTDE mock (``python -m server.mock_rtde``, a UR5e's 6 joints at 500 Hz: ten
+packages per frame), Mosquitto with a publisher of the UR5e's joints as one
+JSON message per robot at 50 Hz. ``python -m server`` follows the cell with no
+viewer; after a warm-up its CPU time (/proc) over the window is divided by the
+robot-samples it made into frames (/api/health). Robots per core: what one
+core would carry at 50 frames/s per robot. The kinds run alternately, several
+rounds; the table has each kind's median and its ratio to ctrlX's from the same
+rounds (the machine is shared: the ratio is steadier than the figures).
+
+Usage: ``python bench/sources.py [--robots 10] [--seconds 5] [--rounds 3]
+[--quick]``; writes docs/benchmarks.md except in quick runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import ExitStack
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(ROOT))
+from _report import markdown_table, publish  # noqa: E402
+from cluster import ARM_JOINTS, ARM_KINEMATICS, PASSWORD_ENV, health  # noqa: E402
+from viewers import cpu_seconds, free_port, stop  # noqa: E402
+
+KINDS = ("ctrlx", "rtde", "mqtt")
+RATE_HZ = 50.0
+UR5E = (
+    '{ type = "dh", d = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6], '
+    "a = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0], alpha_deg = [90.0, 0.0, 0.0, 90.0, -90.0, 0.0] }"
+)
+
+
+def cell_text(kind: str, robots: int, url: str) -> str:
+    """K robots of ``kind``, each on its own source at ``url``."""
+    parts = []
+    for i in range(robots):
+        base = f"base = {{ xyz = [{1500.0 * (i % 20)}, {1500.0 * (i // 20)}, 0.0] }}"
+        if kind == "ctrlx":
+            source = f'url = "{url}"\npassword_env = "{PASSWORD_ENV}"'
+            joints = ", ".join(f'{{ node = "{n}", unit = "deg" }}' for n in ARM_JOINTS)
+            robot = f"joints = [{joints}]\nkinematics = {ARM_KINEMATICS}"
+        elif kind == "rtde":
+            source, robot = f'type = "rtde"\nurl = "{url}"', f"kinematics = {UR5E}"
+        else:
+            source = f'type = "mqtt"\nurl = "{url}"'
+            joints = ", ".join(
+                f'{{ node = "bench/arm{i}#/joints/{j}", unit = "rad" }}' for j in range(6)
+            )
+            robot = f"joints = [{joints}]\nkinematics = {UR5E}"
+        parts.append(
+            f'[[source]]\nname = "s{i}"\n{source}\n\n'
+            f'[[robot]]\nname = "arm{i}"\nsource = "s{i}"\n{base}\n{robot}\n'
+        )
+    return "\n".join(parts)
+
+
+def start(stack: ExitStack, argv: list[str], log: Path) -> subprocess.Popen[bytes]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), PASSWORD_ENV: "boschrexroth"}
+    with open(log, "ab") as out:
+        process = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=out, stderr=out)
+    stack.callback(stop, process)
+    return process
+
+
+def wait_port(port: int, timeout_s: float = 20.0) -> None:
+    import socket
+
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        with socket.socket() as sock:
+            if sock.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.1)
+    raise RuntimeError(f"nothing listens on port {port}")
+
+
+def start_mock(stack: ExitStack, kind: str, robots: int, folder: Path) -> str:
+    """The mock of ``kind`` in processes of its own; the URL the cell's sources use."""
+    port = free_port()
+    log = folder / f"mock-{kind}.log"
+    if kind == "ctrlx":
+        start(stack, [sys.executable, "-m", "server.mock_ctrlx", "--port", str(port)], log)
+        wait_port(port)
+        return f"http://127.0.0.1:{port}"
+    if kind == "rtde":
+        start(stack, [sys.executable, "-m", "server.mock_rtde", "--port", str(port)], log)
+        wait_port(port)
+        return f"rtde://127.0.0.1:{port}"
+    config = folder / "mosquitto.conf"
+    config.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
+    start(stack, ["mosquitto", "-c", str(config)], log)
+    wait_port(port)
+    argv = [sys.executable, str(Path(__file__)), "--publish", str(port), str(robots)]
+    start(stack, argv, log)
+    return f"mqtt://127.0.0.1:{port}"
+
+
+async def publish(port: int, robots: int) -> None:
+    """The MQTT mock's publisher: each robot's six joints as one JSON message, at 50 Hz."""
+    import aiomqtt
+
+    from server.mock_ctrlx import Machine
+    from server.mock_rtde import demo_groups
+    from server.mqtt.nodes import parse_node
+    from server.mqtt.publisher import payloads
+
+    machine = Machine(demo_groups()[:1])
+    nodes = {
+        f"bench/arm{i}#/joints/{j}": parse_node(f"bench/arm{i}#/joints/{j}")
+        for i in range(robots)
+        for j in range(6)
+    }
+    async with aiomqtt.Client("127.0.0.1", port) as client:
+        loop = asyncio.get_running_loop()
+        due = loop.time()
+        while True:
+            q = machine.snapshot()
+            values = {key: q[f"ur5e_q{key[-1]}"] for key in nodes}
+            for topic, payload in payloads(nodes, values).items():
+                await client.publish(topic, payload)
+            due = max(due + 1.0 / RATE_HZ, loop.time())
+            await asyncio.sleep(due - loop.time())
+
+
+def run_case(kind: str, robots: int, warmup: float, seconds: float) -> dict[str, float]:
+    """One kind at one size: CPU per robot-sample and frames/s per robot."""
+    with ExitStack() as stack, tempfile.TemporaryDirectory(prefix="bench-sources-") as tmp:
+        folder = Path(tmp)
+        url = start_mock(stack, kind, robots, folder)
+        cell = folder / "cell.toml"
+        cell.write_text(cell_text(kind, robots, url))
+        port = free_port()
+        argv = [sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)]
+        server = start(stack, argv, folder / "server.log")
+        wait_port(port)
+        time.sleep(warmup)
+        frames0 = sum(r["frames"] for r in health(port)["robots"])
+        cpu0, t0 = cpu_seconds(server.pid), time.monotonic()
+        time.sleep(seconds)
+        cpu1, t1 = cpu_seconds(server.pid), time.monotonic()
+        body = health(port)
+        frames = sum(r["frames"] for r in body["robots"]) - frames0
+        connected = sum(s["state"] == "connected" for s in body["sources"])
+    if frames <= 0:
+        raise RuntimeError(f"{kind}: no frames made; see the server's log")
+    return {
+        "ms": 1e3 * (cpu1 - cpu0) / frames,
+        "hz": frames / robots / (t1 - t0),
+        "cpu": (cpu1 - cpu0) / (t1 - t0),
+        "connected": connected,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--robots", type=int, default=10, help="robots (and sources) per kind")
+    parser.add_argument("--seconds", type=float, default=5.0, help="measuring window")
+    parser.add_argument("--warmup", type=float, default=4.0)
+    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds per kind")
+    parser.add_argument("--quick", action="store_true", help="2 robots, 1 s, 1 round; no docs")
+    parser.add_argument("--publish", nargs=2, type=int, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.publish:
+        asyncio.run(publish(*args.publish))
+        return
+    if args.quick:
+        args.robots, args.seconds, args.warmup, args.rounds = 2, 1.0, 3.0, 1
+    results: dict[str, list[dict[str, float]]] = {kind: [] for kind in KINDS}
+    for _ in range(args.rounds):
+        for kind in KINDS:
+            case = run_case(kind, args.robots, args.warmup, args.seconds)
+            results[kind].append(case)
+            print(f"{kind}: {case['ms']:.3f} ms per robot-sample, {case['hz']:.1f} frames/s/robot")
+    ctrlx = [c["ms"] for c in results["ctrlx"]]
+    rows = []
+    for kind in KINDS:
+        ms = [c["ms"] for c in results[kind]]
+        ratios = [m / c for m, c in zip(ms, ctrlx, strict=True)]
+        median = statistics.median(ms)
+        rows.append(
+            [
+                kind,
+                f"{median:.3f}",
+                f"{statistics.median(ratios):.2f}",
+                f"{statistics.median(c['hz'] for c in results[kind]):.1f}",
+                f"{1e3 / (median * RATE_HZ):.0f}",
+                f"{min(c['connected'] for c in results[kind]):.0f} of {args.robots}",
+            ]
+        )
+    header = ["kind", "ms CPU per robot-sample", "x ctrlX", "frames/s per robot"]
+    header += ["robots per core at 50 Hz", "sources connected"]
+    body = markdown_table(header, rows)
+    body += (
+        f"\n\n{args.robots} robots per kind, each on its own source; medians of {args.rounds} "
+        f"alternating rounds of {args.seconds:g} s after {args.warmup:g} s of warm-up; the "
+        "server's CPU (user + system, /proc) over the robot-samples it made into frames, no "
+        "viewer. ctrlX: the mock's event streams, an LBR iiwa (7 joints) per source. RTDE: the "
+        "mock UR controller's 500 Hz data packages, a UR5e (6 joints) per source; the newest "
+        "of each 20 ms is unpacked. MQTT: Mosquitto, one JSON message with a UR5e's joints per "
+        "robot at 50 Hz. Mocks and broker run in processes of their own on the same machine."
+    )
+    if args.quick:
+        print(body)
+    else:
+        publish("bench/sources.py", "Sources: CPU per robot-sample by kind", body)
+
+
+if __name__ == "__main__":
+    main()
