@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import math
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -37,6 +39,8 @@ from cluster import ARM_JOINTS, ARM_KINEMATICS, PASSWORD_ENV, health  # noqa: E4
 from viewers import cpu_seconds, free_port, stop  # noqa: E402
 
 KINDS = ("ctrlx", "rtde", "mqtt")
+RTDE_CLIENTS_PER_MOCK = 4
+SENT = re.compile(r"sent (\d+) data packages in ([\d.]+) s")
 RATE_HZ = 50.0
 UR5E = (
     '{ type = "dh", d = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6], '
@@ -44,10 +48,11 @@ UR5E = (
 )
 
 
-def cell_text(kind: str, robots: int, url: str) -> str:
-    """K robots of ``kind``, each on its own source at ``url``."""
+def cell_text(kind: str, robots: int, urls: list[str]) -> str:
+    """K robots of ``kind``, each on its own source, at ``urls`` in turn."""
     parts = []
     for i in range(robots):
+        url = urls[i % len(urls)]
         base = f"base = {{ xyz = [{1500.0 * (i % 20)}, {1500.0 * (i // 20)}, 0.0] }}"
         if kind == "ctrlx":
             source = f'url = "{url}"\npassword_env = "{PASSWORD_ENV}"'
@@ -88,28 +93,33 @@ def wait_port(port: int, timeout_s: float = 20.0) -> None:
     raise RuntimeError(f"nothing listens on port {port}")
 
 
-def start_mock(stack: ExitStack, kind: str, robots: int, folder: Path) -> str:
-    """The mock of ``kind`` in processes of its own; the URL the cell's sources use."""
+def start_mock(stack: ExitStack, kind: str, robots: int, folder: Path) -> list[str]:
+    """The mock of ``kind`` in processes of its own; the URLs the cell's sources use."""
     port = free_port()
     log = folder / f"mock-{kind}.log"
     if kind == "ctrlx":
         start(stack, [sys.executable, "-m", "server.mock_ctrlx", "--port", str(port)], log)
         wait_port(port)
-        return f"http://127.0.0.1:{port}"
-    if kind == "rtde":
-        start(stack, [sys.executable, "-m", "server.mock_rtde", "--port", str(port)], log)
-        wait_port(port)
-        return f"rtde://127.0.0.1:{port}"
+        return [f"http://127.0.0.1:{port}"]
+    if kind == "rtde":  # a process sends 500 Hz to a few clients only
+        urls = []
+        for k in range(math.ceil(robots / RTDE_CLIENTS_PER_MOCK)):
+            port = free_port()
+            argv = [sys.executable, "-m", "server.mock_rtde", "--port", str(port)]
+            start(stack, argv, folder / f"mock-rtde-{k}.log")
+            wait_port(port)
+            urls.append(f"rtde://127.0.0.1:{port}")
+        return urls
     config = folder / "mosquitto.conf"
     config.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
     start(stack, ["mosquitto", "-c", str(config)], log)
     wait_port(port)
     argv = [sys.executable, str(Path(__file__)), "--publish", str(port), str(robots)]
     start(stack, argv, log)
-    return f"mqtt://127.0.0.1:{port}"
+    return [f"mqtt://127.0.0.1:{port}"]
 
 
-async def publish(port: int, robots: int) -> None:
+async def publish_mqtt(port: int, robots: int) -> None:
     """The MQTT mock's publisher: each robot's six joints as one JSON message, at 50 Hz."""
     import aiomqtt
 
@@ -140,9 +150,9 @@ def run_case(kind: str, robots: int, warmup: float, seconds: float) -> dict[str,
     """One kind at one size: CPU per robot-sample and frames/s per robot."""
     with ExitStack() as stack, tempfile.TemporaryDirectory(prefix="bench-sources-") as tmp:
         folder = Path(tmp)
-        url = start_mock(stack, kind, robots, folder)
+        urls = start_mock(stack, kind, robots, folder)
         cell = folder / "cell.toml"
-        cell.write_text(cell_text(kind, robots, url))
+        cell.write_text(cell_text(kind, robots, urls))
         port = free_port()
         argv = [sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)]
         server = start(stack, argv, folder / "server.log")
@@ -155,6 +165,10 @@ def run_case(kind: str, robots: int, warmup: float, seconds: float) -> dict[str,
         body = health(port)
         frames = sum(r["frames"] for r in body["robots"]) - frames0
         connected = sum(s["state"] == "connected" for s in body["sources"])
+        stack.close()  # the RTDE mocks print what they sent as they stop
+        sent = [m.groups() for m in SENT.finditer(_logs(folder, "mock-rtde-*.log"))]
+    # The mocks' packages per second and client (rates over their whole run).
+    sent_hz = sum(int(n) / float(t) for n, t in sent) / robots if sent else float("nan")
     if frames <= 0:
         raise RuntimeError(f"{kind}: no frames made; see the server's log")
     return {
@@ -162,7 +176,12 @@ def run_case(kind: str, robots: int, warmup: float, seconds: float) -> dict[str,
         "hz": frames / robots / (t1 - t0),
         "cpu": (cpu1 - cpu0) / (t1 - t0),
         "connected": connected,
+        "sent_hz": sent_hz,
     }
+
+
+def _logs(folder: Path, pattern: str) -> str:
+    return "".join(p.read_text(errors="replace") for p in folder.glob(pattern))
 
 
 def main() -> None:
@@ -175,7 +194,7 @@ def main() -> None:
     parser.add_argument("--publish", nargs=2, type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.publish:
-        asyncio.run(publish(*args.publish))
+        asyncio.run(publish_mqtt(*args.publish))
         return
     if args.quick:
         args.robots, args.seconds, args.warmup, args.rounds = 2, 1.0, 3.0, 1
@@ -201,6 +220,7 @@ def main() -> None:
                 f"{min(c['connected'] for c in results[kind]):.0f} of {args.robots}",
             ]
         )
+    packages = statistics.median(c["sent_hz"] for c in results["rtde"])
     header = ["kind", "ms CPU per robot-sample", "x ctrlX", "frames/s per robot"]
     header += ["robots per core at 50 Hz", "sources connected"]
     body = markdown_table(header, rows)
@@ -209,9 +229,10 @@ def main() -> None:
         f"alternating rounds of {args.seconds:g} s after {args.warmup:g} s of warm-up; the "
         "server's CPU (user + system, /proc) over the robot-samples it made into frames, no "
         "viewer. ctrlX: the mock's event streams, an LBR iiwa (7 joints) per source. RTDE: the "
-        "mock UR controller's 500 Hz data packages, a UR5e (6 joints) per source; the newest "
-        "of each 20 ms is unpacked. MQTT: Mosquitto, one JSON message with a UR5e's joints per "
-        "robot at 50 Hz. Mocks and broker run in processes of their own on the same machine."
+        f"mock UR controllers' data packages ({packages:.0f} per second and source as the mocks "
+        f"counted them, {RTDE_CLIENTS_PER_MOCK} sources per mock process), a UR5e (6 joints) "
+        "per source; the newest of each 20 ms is unpacked. MQTT: Mosquitto, one JSON message "
+        "with a UR5e's joints per robot at 50 Hz. Mocks and broker run in processes of their own on the same machine."
     )
     if args.quick:
         print(body)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import signal
+import time
 
 from ..logs import setup_logging
 from ..mock_ctrlx import HOLD_S, Machine
@@ -28,6 +30,8 @@ async def _run(args: argparse.Namespace) -> None:
         await asyncio.Event().wait()
     finally:
         await mock.close()
+        seconds = time.monotonic() - (mock.first_sent or time.monotonic())
+        print(f"sent {mock.sent} data packages in {seconds:.1f} s", flush=True)
 
 
 def main() -> None:
@@ -37,6 +41,8 @@ def main() -> None:
     parser.add_argument("--cb3", action="store_true", help="say a CB3 version: 125 Hz at most")
     args = parser.parse_args()
     setup_logging()
+    # Stopped by SIGTERM as by Ctrl-C: the count of packages sent is printed either way.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         asyncio.run(_run(args))
     except KeyboardInterrupt:

@@ -53,6 +53,8 @@ class RtdeMock:
         self._silent_until = 0.0
         self.sent = 0
         """Data packages sent to all clients."""
+        self.first_sent: float | None = None
+        """``time.monotonic()`` of the first data package sent."""
         self.skipped = 0
         """Packages not sent because a client's socket was full."""
 
@@ -195,4 +197,6 @@ class RtdeMock:
                 continue
             values = self.outputs.values(fields, timestamp, self.boot_s + timestamp)
             transport.write(wire.package(wire.DATA_PACKAGE, layout.pack(recipe_id, *values)))
+            if self.first_sent is None:
+                self.first_sent = time.monotonic()
             self.sent += 1

@@ -11,6 +11,7 @@ import pytest
 from server.mock_ctrlx import Machine
 from server.mock_rtde import POSITIONER_REGISTERS, RtdeMock, demo_groups
 from server.rtde import NotFound, RtdeConnector, RtdeSettings, parse_key, register_key
+from server.rtde.connector import MAX_BATCH
 from server.sources import Sample, SourceError
 from tests.conftest import wait_until
 
@@ -96,8 +97,9 @@ async def test_packages_arrive_at_500_hz_and_are_delivered_newest_only_once_per_
     await asyncio.sleep(0.1)
     samples = list(follower.samples)
     stamps: list[float] = [s.values["timestamp"] for s in samples]
-    # Every package the mock sent arrived ...
-    assert follower.connector.packages == mock.sent
+    # Every package the mock sent arrived, but the few the kernel holds until enough are
+    # in to wake the reader (it gathers up to 40 % of a period's packages per wake-up) ...
+    assert 0 <= mock.sent - follower.connector.packages < MAX_BATCH
     # ... each delivered is a package of the controller's 2 ms clock, and stands for the
     # 20 ms source periods since the one before (one, unless the delivery was late).
     assert all(abs(t / 0.002 - round(t / 0.002)) < 1e-6 for t in stamps)
