@@ -232,7 +232,8 @@ def main() -> None:
         f"mock UR controllers' data packages ({packages:.0f} per second and source as the mocks "
         f"counted them, {RTDE_CLIENTS_PER_MOCK} sources per mock process), a UR5e (6 joints) "
         "per source; the newest of each 20 ms is unpacked. MQTT: Mosquitto, one JSON message "
-        "with a UR5e's joints per robot at 50 Hz. Mocks and broker run in processes of their own on the same machine."
+        "with a UR5e's joints per robot at 50 Hz. Mocks and broker run in processes of their "
+        "own on the same machine."
     )
     if args.quick:
         print(body)
