@@ -41,18 +41,24 @@ class Mosquitto:
     """One broker process: ``await start()``, ``await stop()`` (and start again, same port)."""
 
     def __init__(
-        self, host: str = "127.0.0.1", port: int | None = None, passwords: Path | None = None
+        self,
+        host: str = "127.0.0.1",
+        port: int | None = None,
+        passwords: Path | None = None,
+        tls: tuple[Path, Path] | None = None,
     ) -> None:
         self.host = host
         self.port = port or _free_port(host)
         self.passwords = passwords
         """A mosquitto_passwd file: logins required (None: anonymous access)."""
+        self.tls = tls
+        """(certificate, key) PEM files: the listener speaks TLS (None: plain MQTT)."""
         self._folder = tempfile.TemporaryDirectory(prefix="linkview-mosquitto-")
         self._process: asyncio.subprocess.Process | None = None
 
     @property
     def url(self) -> str:
-        return f"mqtt://{self.host}:{self.port}"
+        return f"{'mqtts' if self.tls else 'mqtt'}://{self.host}:{self.port}"
 
     def _config(self) -> Path:
         lines = [
@@ -64,6 +70,8 @@ class Mosquitto:
             # our temporary files: it stays whoever started it.
             f"user {getpass.getuser()}",
         ]
+        if self.tls is not None:
+            lines += [f"certfile {self.tls[0]}", f"keyfile {self.tls[1]}"]
         if self.passwords is None:
             lines.append("allow_anonymous true")
         else:
@@ -90,7 +98,7 @@ class Mosquitto:
                     assert self._process.stderr is not None
                     why = (await self._process.stderr.read()).decode(errors="replace").strip()
                     raise SourceError(f"mosquitto on {self.url} stopped: {why[-300:]}")
-                with contextlib.suppress(OSError):
+                with contextlib.suppress(OSError):  # a TCP connection: TLS or not, it listens
                     _, writer = await asyncio.open_connection(self.host, self.port)
                     writer.close()
                     return self.url

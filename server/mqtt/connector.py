@@ -16,6 +16,7 @@ per topic each cycle).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import ssl
 import time
@@ -60,17 +61,45 @@ class MqttConnector:
     def __init__(self, settings: MqttSettings) -> None:
         self.settings = settings
         self.host, self.port, self.tls = mqtt_address(settings.url)
-        self.warning: str | None = None
+        self.standing = _standing_warning(self.host, self.tls, settings)
+        """What health shows whatever the messages: a login in clear, an unchecked broker."""
+        self.retained: str | None = None
+        """Set while some topic's newest value is a retained message (age unknown)."""
         self.messages = 0
         """Messages received on the followed topics, in all."""
 
-    def _client(self) -> aiomqtt.Client:
-        context: ssl.SSLContext | None = None
-        if self.tls:
-            verify = client_ssl(self.settings.ca, self.settings.insecure)
-            context = verify if isinstance(verify, ssl.SSLContext) else ssl.create_default_context()
-            if verify is False:
-                context.check_hostname, context.verify_mode = False, ssl.CERT_NONE
+    @property
+    def warning(self) -> str | None:
+        """The standing caveat and the retained messages, for health."""
+        return "; ".join(w for w in (self.standing, self.retained) if w) or None
+
+    def _context(self) -> ssl.SSLContext | None:
+        if not self.tls:
+            return None
+        verify = client_ssl(self.settings.ca, self.settings.insecure)
+        context = verify if isinstance(verify, ssl.SSLContext) else ssl.create_default_context()
+        if verify is False:
+            context.check_hostname, context.verify_mode = False, ssl.CERT_NONE
+        return context
+
+    async def _check_tls(self, context: ssl.SSLContext) -> None:
+        """The TLS handshake on our own first: paho leaves its socket open when it fails (a
+        ResourceWarning per attempt), and a broker whose certificate we refuse is named."""
+        try:
+            async with asyncio.timeout(self.settings.timeout_s):
+                _, writer = await asyncio.open_connection(
+                    self.host, self.port, ssl=context, server_hostname=self.host
+                )
+        except (OSError, TimeoutError) as exc:
+            raise aiomqtt.MqttError(str(exc) or type(exc).__name__) from None
+        writer.close()
+        with contextlib.suppress(OSError, ssl.SSLError):
+            await writer.wait_closed()
+
+    async def _client(self) -> aiomqtt.Client:
+        context = self._context()
+        if context is not None:
+            await self._check_tls(context)
         return aiomqtt.Client(
             self.host,
             self.port,
@@ -95,7 +124,7 @@ class MqttConnector:
             while True:
                 up = False
                 try:
-                    async with self._client() as client:
+                    async with await self._client() as client:
                         for topic in state.topics:
                             await client.subscribe(topic)
                         up = ever_up = True
@@ -126,6 +155,15 @@ class MqttConnector:
 
     async def close(self) -> None:
         """Nothing held between follows: each follow closes its own session."""
+
+
+def _standing_warning(host: str, tls: bool, settings: MqttSettings) -> str | None:
+    if tls and settings.insecure:
+        return "the broker's TLS certificate is not checked (insecure)"
+    loopback = host in ("localhost", "::1") or host.startswith("127.")
+    if not tls and settings.user and not loopback:
+        return "mqtt:// with a login: the password travels in clear (use mqtts://)"
+    return None
 
 
 class _Topics:
@@ -177,7 +215,7 @@ class _Topics:
         else:
             self.retained.discard(topic)
         if len(self.retained) != before:
-            self.owner.warning = (
+            self.owner.retained = (
                 "last value, age unknown (retained message on "
                 + ", ".join(sorted(self.retained))
                 + ")"

@@ -10,6 +10,7 @@ unambiguous, and ``#/...`` reads as RFC 6901's URI-fragment form.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from urllib.parse import urlsplit
 
@@ -49,9 +50,13 @@ def parse_node(text: str) -> Node:
     return Node(topic, tokens)
 
 
+_USERINFO = re.compile(r"//[^/@]*@")
+
+
 def mqtt_address(url: str) -> tuple[str, int, bool]:
     """``(host, port, tls)`` of ``mqtt://HOST[:PORT]`` or ``mqtts://HOST[:PORT]``."""
     parts = urlsplit(url)
+    url = _USERINFO.sub("//", url)  # a password put in the URL is never echoed
     if parts.scheme not in PORTS or not parts.hostname:
         raise ValueError(f"{url!r} is no broker address: write mqtt://HOST[:PORT] or mqtts://...")
     if parts.username or parts.password:

@@ -185,13 +185,17 @@ KNOWN_TYPES: dict[str, str] = {
 and for the mock); the controller's setup reply is what the client trusts."""
 
 
+_USERINFO = re.compile(r"//[^/@]*@")
+
+
 def rtde_address(url: str) -> tuple[str, int]:
     """``(host, port)`` of ``rtde://HOST[:PORT]`` (port 30004 by default); ValueError if not one."""
     parts = urlsplit(url)
+    url = _USERINFO.sub("//", url)  # a password put in the URL is never echoed
     if parts.scheme != "rtde" or not parts.hostname:
         raise ValueError(f"{url!r} is no RTDE address: write rtde://HOST or rtde://HOST:PORT")
     if parts.path not in ("", "/") or parts.query or parts.fragment or parts.username:
-        raise ValueError(f"{url!r}: an RTDE address is rtde://HOST[:PORT], nothing more")
+        raise ValueError(f"{url!r}: an RTDE address is rtde://HOST[:PORT], nothing more (no login)")
     try:
         port = parts.port or PORT
     except ValueError as exc:

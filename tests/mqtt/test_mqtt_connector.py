@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import ssl
 import subprocess
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
@@ -10,6 +11,7 @@ from pathlib import Path
 import aiomqtt
 import pytest
 
+from server.mock_ctrlx import make_certificate
 from server.mqtt import Mosquitto, MqttConnector, MqttSettings, NoMessageYet, PayloadError
 from server.mqtt.nodes import parse_node
 from server.mqtt.publisher import document
@@ -240,3 +242,41 @@ def test_node_keys_split_topic_and_json_pointer() -> None:
 def test_the_mock_publisher_builds_json_that_the_pointers_find() -> None:
     built = document([(("joints", "1"), 2.0), (("joints", "0"), 1.0), (("tcp", "x"), 3.0)])
     assert built == {"joints": [1.0, 2.0], "tcp": {"x": 3.0}}
+
+
+async def test_tls_with_the_brokers_certificate_and_refused_without(tmp_path: Path) -> None:
+    cert = make_certificate(tmp_path)
+    mosquitto = Mosquitto(port=free_port(), tls=(cert.cert_file, cert.key_file))
+    await mosquitto.start()
+    try:
+        assert mosquitto.url.startswith("mqtts://")
+        unchecked = MqttConnector(MqttSettings(mosquitto.url))  # the system's CAs: not ours
+        with pytest.raises(SourceError, match="CERTIFICATE_VERIFY_FAILED|certificate verify"):
+            await asyncio.wait_for(unchecked.follow(["a"], 0.02, lambda _: None), 10.0)
+        trusted = MqttConnector(MqttSettings(mosquitto.url, ca=cert.ca_file))
+        samples: list[Sample] = []
+        task = asyncio.create_task(trusted.follow(["a"], 0.02, samples.append))
+        try:
+            context = ssl.create_default_context(cafile=str(cert.ca_file))
+            async with aiomqtt.Client(
+                mosquitto.host, mosquitto.port, tls_context=context
+            ) as client:
+                async with asyncio.timeout(10):
+                    while not samples:
+                        await client.publish("a", b"7")
+                        await asyncio.sleep(0.05)
+            assert samples[-1].values["a"] == 7.0
+            assert trusted.warning is None
+        finally:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+    finally:
+        await mosquitto.close()
+
+
+def test_standing_warnings_name_a_login_in_clear_and_an_unchecked_broker() -> None:
+    clear = MqttConnector(MqttSettings("mqtt://10.1.2.3", user="viewer", password="x"))
+    assert clear.warning == "mqtt:// with a login: the password travels in clear (use mqtts://)"
+    unchecked = MqttConnector(MqttSettings("mqtts://10.1.2.3", insecure=True))
+    assert unchecked.warning == "the broker's TLS certificate is not checked (insecure)"
+    assert MqttConnector(MqttSettings("mqtt://127.0.0.1", user="viewer")).warning is None
