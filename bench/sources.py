@@ -39,7 +39,7 @@ from cluster import ARM_JOINTS, ARM_KINEMATICS, PASSWORD_ENV, health  # noqa: E4
 from viewers import cpu_seconds, free_port, stop  # noqa: E402
 
 KINDS = ("ctrlx", "rtde", "mqtt")
-RTDE_CLIENTS_PER_MOCK = 4
+RTDE_CLIENTS_PER_MOCK = 5
 SENT = re.compile(r"sent (\d+) data packages in ([\d.]+) s")
 RATE_HZ = 50.0
 UR5E = (

@@ -56,6 +56,8 @@ class RtdeMock:
         self.first_sent: float | None = None
         """``time.monotonic()`` of the first data package sent."""
         self.skipped = 0
+        self._made: dict[tuple[int, tuple[str, ...]], tuple[float, bytes]] = {}
+        """The newest package made per recipe: clients with the same recipe share it."""
         """Packages not sent because a client's socket was full."""
 
     @property
@@ -172,6 +174,18 @@ class RtdeMock:
                     await sender
             writer.transport.abort()
 
+    def _package(
+        self, recipe_id: int, fields: tuple[str, ...], layout: struct.Struct, timestamp: float
+    ) -> bytes:
+        """The data package of ``fields`` at ``timestamp``, made once for every client."""
+        made = self._made.get((recipe_id, fields))
+        if made is not None and made[0] == timestamp:
+            return made[1]
+        values = self.outputs.values(fields, timestamp, self.boot_s + timestamp)
+        data = wire.package(wire.DATA_PACKAGE, layout.pack(recipe_id, *values))
+        self._made[recipe_id, fields] = (timestamp, data)
+        return data
+
     async def _send(
         self, writer: asyncio.StreamWriter, recipe_id: int, fields: list[str], frequency: float
     ) -> None:
@@ -179,6 +193,7 @@ class RtdeMock:
         every = max(1, round(1.0 / (min(frequency, 1.0 / self.tick_s) * self.tick_s)))
         step = every * self.tick_s
         layout = self.outputs.layout(fields)
+        key = tuple(fields)
         k = math.ceil((time.time() - self.boot_s) / step)
         transport = writer.transport
         while not transport.is_closing():
@@ -195,8 +210,7 @@ class RtdeMock:
             if transport.get_write_buffer_size() > BUFFER_LIMIT:
                 self.skipped += 1
                 continue
-            values = self.outputs.values(fields, timestamp, self.boot_s + timestamp)
-            transport.write(wire.package(wire.DATA_PACKAGE, layout.pack(recipe_id, *values)))
+            transport.write(self._package(recipe_id, key, layout, timestamp))
             if self.first_sent is None:
                 self.first_sent = time.monotonic()
             self.sent += 1
