@@ -8,7 +8,7 @@ import signal
 import time
 
 from ..logs import setup_logging
-from ..mock_ctrlx import HOLD_S, Machine
+from ..mock_ctrlx import DEFAULT_LAG_S, HOLD_S, Machine
 from ..rtde import wire
 from .outputs import POSITIONER_REGISTERS, demo_groups
 from .server import RtdeMock
@@ -17,7 +17,7 @@ CB3_VERSION = (3, 15, 7, 0)
 
 
 async def _run(args: argparse.Namespace) -> None:
-    machine = Machine(demo_groups(), hold_s=HOLD_S)
+    machine = Machine(demo_groups(), hold_s=HOLD_S, lag_s=DEFAULT_LAG_S)
     mock = RtdeMock(machine, CB3_VERSION) if args.cb3 else RtdeMock(machine)
     url = await mock.start(args.host, args.port)
     tilt, turn = POSITIONER_REGISTERS

@@ -24,7 +24,7 @@ MISSING = "output_double_register_60"
 
 @pytest.fixture
 async def mock() -> AsyncIterator[RtdeMock]:
-    controller = RtdeMock(Machine(demo_groups()))
+    controller = RtdeMock(Machine(demo_groups(), lag_s=0.008))  # target_q leads actual_q
     await controller.start("127.0.0.1", 0)
     try:
         yield controller
