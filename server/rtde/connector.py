@@ -222,6 +222,7 @@ class _Emitter:
         self.offset_s: float | None = None
         """Our clock minus the controller's (its timestamp counts from its boot): least seen."""
         self.modes: tuple[float, float] | None = None
+        self.warned = False
         self.period_s = period_s
         self.newest: bytes | None = None
         self.stamp: float | None = None
@@ -240,7 +241,9 @@ class _Emitter:
         try:
             flat = self.recipe.unpack(payload)
         except wire.WireError as exc:
-            log.warning("%s: %s", self.connector.settings.where, exc)
+            if not self.warned:  # once per connection: every package would say the same
+                self.warned = True
+                log.warning("%s: %s", self.connector.settings.where, exc)
             return
         now = time.time()
         t_source, received = now, 1

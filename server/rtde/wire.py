@@ -113,7 +113,9 @@ def read_text_message(payload: bytes) -> str:
     rest = payload[1 + n :]
     m = rest[0] if rest else 0
     src = rest[1 : 1 + m].decode(errors="replace")
-    return f"{src}: {msg}" if src else msg
+    text = f"{src}: {msg}" if src else msg
+    # The device's words go to the log: one line, no control characters.
+    return "".join(c if c.isprintable() else "?" for c in text)
 
 
 _KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d+)\])?$")

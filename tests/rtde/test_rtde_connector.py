@@ -235,3 +235,10 @@ async def test_packages_split_anywhere_across_reads_are_put_back_together() -> N
         assert sum(count for _, count in got) == 5
         assert got[-1][0] == bytes([1]) + bytes([4]) * 8
         assert link.messages == ["controller: hello"]
+
+
+def test_a_controllers_text_message_reaches_the_log_as_one_printable_line() -> None:
+    from server.rtde import wire
+
+    payload = wire.text_message("stop\nFAKE 2026 ERROR injected", "ctrl\x1b[31m")[3:]
+    assert wire.read_text_message(payload) == "ctrl?[31m: stop?FAKE 2026 ERROR injected"
