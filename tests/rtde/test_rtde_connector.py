@@ -105,12 +105,11 @@ async def test_packages_arrive_at_500_hz_and_are_delivered_newest_only_once_per_
     assert all(abs(t / 0.002 - round(t / 0.002)) < 1e-6 for t in stamps)
     for before, after, sample in zip(stamps, stamps[1:], samples[1:], strict=False):
         assert sample.received == max(1, round((after - before) / 0.02))
-    # Never one package twice, and at most one delivery per 20 ms period (the loop's timers
-    # may fire up to its clock resolution early).
+    # Never one package twice, and at most one delivery per 20 ms period (timed here, after
+    # the unpacking: up to a millisecond of that work may fall between two deliveries).
     assert len(set(stamps)) == len(stamps)
     at = follower.delivered
-    resolution = time.get_clock_info("monotonic").resolution
-    assert min(b - a for a, b in zip(at, at[1:], strict=False)) >= 0.02 - resolution - 1e-6
+    assert min(b - a for a, b in zip(at, at[1:], strict=False)) >= 0.02 - 0.001
     # Packages came at 500 Hz: ten or so stood behind each delivery.
     assert mock.sent > 5 * len(samples)
 
