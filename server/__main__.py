@@ -61,6 +61,13 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
     )
     if web is not None:
         web.add_argument(
+            "--allow-edits",
+            action="store_true",
+            default=None,
+            help="let the page change the cell file and save it (docs/commissioning.md)",
+        )
+    if web is not None:
+        web.add_argument(
             "--viewer-token",
             metavar="SECRET",
             help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
@@ -126,6 +133,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         "port": args.port,
         "cell": args.cell,
         "allow_commands": args.allow_commands,
+        "allow_edits": getattr(args, "allow_edits", None),
         "viewer_token": args.viewer_token,
         "allow_origin": args.allow_origin,
         "allow_host": args.allow_host,

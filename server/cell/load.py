@@ -126,17 +126,22 @@ def default_cache_dir() -> Path:
 
 
 def load_cell(
-    path: Path, env: Mapping[str, str] | None = None, cache_dir: Path | None = None
+    path: Path,
+    env: Mapping[str, str] | None = None,
+    cache_dir: Path | None = None,
+    text: str | None = None,
 ) -> Cell:
     """The cell described by the TOML file at ``path``; raises CellError.
 
     ``env`` supplies passwords (default: the environment); ``cache_dir`` keeps
-    URDF meshes converted to GLB (default: ``default_cache_dir()``).
+    URDF meshes converted to GLB (default: ``default_cache_dir()``). ``text``:
+    the file's contents as they would be (an edit not yet saved), read instead
+    of the file; relative paths still start at ``path``'s folder.
     """
     env = os.environ if env is None else env
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = tomllib.loads(path.read_text(encoding="utf-8") if text is None else text)
     except FileNotFoundError:
         raise CellError(path, [("(file)", "no such file")]) from None
     except (OSError, UnicodeDecodeError) as exc:
