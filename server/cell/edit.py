@@ -135,11 +135,7 @@ class CellText:
             trailing = _trailing_trivia(old)
             del table["kinematics"]
             _add_key(table, "kinematics", new)
-            body = table.value.body
-            if trailing and body and _trivia(body[-1]) and "\n" in trailing[0].as_string():
-                trailing = trailing[1:]  # a blank line there already
-            for item in trailing:
-                table.value.append(None, item)
+            _append_trivia(table, trailing)
         elif old is not None:
             table["kinematics"] = new
         else:
@@ -212,6 +208,23 @@ def _trailing_trivia(table: Table) -> list[Item]:
             break
         trailing.insert(0, entry[1])
     return trailing
+
+
+def _append_trivia(table: Table, items: list[Item]) -> None:
+    """Comments and blank lines at the very end of ``table``'s text: in its last section."""
+    body = table.value.body
+    if body and not _trivia(body[-1]):
+        last = body[-1][1]
+        if isinstance(last, Table):
+            _append_trivia(last, items)
+            return
+        if isinstance(last, AoT) and last.body:
+            _append_trivia(last.body[-1], items)
+            return
+    if items and body and _trivia(body[-1]) and items[0].as_string().strip() == "":
+        items = items[1:]  # a blank line there already
+    for item in items:
+        table.value.append(None, item)
 
 
 def _format(value: Any) -> str:
