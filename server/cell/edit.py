@@ -74,10 +74,7 @@ class CellText:
         if not isinstance(entries, (Array, AoT)):
             raise EditError(f"robot {robot!r} has no joints list")
         tables = list(entries)
-        named = [i for i, t in enumerate(tables) if t.get("joint") == joint]
-        index = named[0] if named else position
-        if not named and any("joint" in t for t in tables) or not 0 <= index < len(tables):
-            raise EditError(f"robot {robot!r} has no joints entry for joint {joint!r}")
+        index = _entry(tables, robot, joint, position)
         cleaned = {k: number(v) if isinstance(v, float) else v for k, v in values.items()}
         if isinstance(entries, AoT):
             for key, value in cleaned.items():
@@ -110,11 +107,12 @@ class CellText:
         robot: str,
         file: str,
         packages: Mapping[str, str],
-        joint_names: Sequence[str],
+        joint_names: Mapping[str, str],
     ) -> None:
         """Describe ``robot`` by the URDF or xacro ``file``: its ``kinematics`` table becomes
-        ``{ type = "urdf", file, packages }``, each joints entry names its URDF joint
-        (``joint_names``, in the entries' order), and ``mesh_dir`` goes (the URDF has meshes).
+        ``{ type = "urdf", file, packages }``, the joints entry of each of its joints now
+        (``joint_names``: its name now -> the URDF joint's, in its joint order) names its
+        URDF joint, and ``mesh_dir`` goes (the URDF brings meshes).
         """
         table = self.robot(robot)
         entries = table.get("joints")
@@ -124,6 +122,7 @@ class CellText:
                 f"robot {robot!r} has {len(tables)} joints entries, "
                 f"{len(joint_names)} joint names given"
             )
+        slots = [_entry(tables, robot, now, k) for k, now in enumerate(joint_names)]
         kinematics: dict[str, Any] = {"type": "urdf", "file": file}
         if packages:
             kinematics["packages"] = dict(packages)
@@ -142,11 +141,22 @@ class CellText:
             _add_key(table, "kinematics", new)
         if "mesh_dir" in table:
             del table["mesh_dir"]
-        for k, name in enumerate(joint_names):
+        for slot, name in zip(slots, joint_names.values(), strict=True):
             if isinstance(entries, AoT):
-                _set(tables[k], "joint", name)
+                _set(tables[slot], "joint", name)
             elif isinstance(entries, Array):
-                entries[k] = _with_keys(tables[k], {"joint": name})
+                entries[slot] = _with_keys(tables[slot], {"joint": name})
+
+
+def _entry(tables: list[Any], robot: str, joint: str, position: int) -> int:
+    """The joints entry of ``joint``: the one naming it where entries name their joints
+    (``joint = "..."``), else the one at ``position`` (the kinematics' joint order)."""
+    named = [i for i, t in enumerate(tables) if t.get("joint") == joint]
+    if named:
+        return named[0]
+    if any("joint" in t for t in tables) or not 0 <= position < len(tables):
+        raise EditError(f"robot {robot!r} has no joints entry for joint {joint!r}")
+    return position
 
 
 def _pose_table(xyz_mm: Sequence[float], rpy_deg: Sequence[float]) -> dict[str, list[float]]:

@@ -84,8 +84,9 @@ class Calibrated(_Change):
 
 
 class Describe(_Change):
-    """Describe the robot by a listed description (``id``); ``joints``: its joint names in
-    the order of the robot's joints entries (default: the description's own order)."""
+    """Describe the robot by a listed description (``id``); ``joints``: for each of the
+    robot's joints, in its order now (``hello``'s), the description's joint that its node
+    drives (default: the description's joints in its own order)."""
 
     op: Literal["description"]
     id: Annotated[str, Field(min_length=1, max_length=64)]
@@ -193,7 +194,8 @@ def _described(
     packages = {
         name: _relative(path, folder) for name, path in catalog.packages(description).items()
     }
-    return lambda text: text.set_description(robot.name, file, packages, names)
+    by_joint = dict(zip((j.name for j in robot.joints), names, strict=True))
+    return lambda text: text.set_description(robot.name, file, packages, by_joint)
 
 
 def _relative(path: Path, folder: Path | None) -> str:

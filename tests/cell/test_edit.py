@@ -113,7 +113,8 @@ def test_a_description_replaces_the_kinematics_keeping_the_comment_that_follows(
 ) -> None:
     cell = CellText(DEMO)
     names = [f"j{i}" for i in range(1, 8)]
-    cell.set_description("iiwa7", "arm.urdf", {"arm_description": "arm"}, names)
+    by_joint = dict(zip([f"a{i}" for i in range(1, 8)], names, strict=True))
+    cell.set_description("iiwa7", "arm.urdf", {"arm_description": "arm"}, by_joint)
     after = tomllib.loads(cell.text)
     iiwa = after["robot"][1]
     assert iiwa["kinematics"] == {
@@ -159,7 +160,7 @@ def test_tables_written_as_sections_are_edited_as_sections() -> None:
 
 def test_a_description_of_an_axis_group_in_sections() -> None:
     cell = CellText(SECTIONS)
-    cell.set_description("g", "y.urdf", {}, ["x"])
+    cell.set_description("g", "y.urdf", {}, {"a1": "x"})
     parsed = tomllib.loads(cell.text)
     assert parsed["robot"][1]["kinematics"] == {"type": "urdf", "file": "y.urdf"}
     assert parsed["robot"][1]["joints"] == [{"node": "q", "joint": "x"}]
@@ -184,7 +185,7 @@ def test_joints_named_by_the_entries_are_found_by_name() -> None:
         (lambda c: c.set_joint("nobody", "a0", 0, {"scale": 1.0}), r"no \[\[robot\]\] named"),
         (lambda c: c.set_joint("kin12", "a9", 5, {"scale": 1.0}), "no joints entry"),
         (lambda c: c.set_axis_pose("kin12", "tilt", [0, 0, 0], [0, 0, 0]), "no axis 'tilt'"),
-        (lambda c: c.set_description("kin12", "x.urdf", {}, ["a"]), "2 joints entries, 1"),
+        (lambda c: c.set_description("kin12", "x.urdf", {}, {"a0": "a"}), "2 joints entries, 1"),
     ],
 )
 def test_edits_that_do_not_fit_the_file_say_why(edit: Any, message: str) -> None:
