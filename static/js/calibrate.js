@@ -109,7 +109,12 @@ class Calibration {
 		container.append( this.el );
 
 		this.kind.addEventListener( 'change', () => this._kindChanged() );
-		this.frameOf.addEventListener( 'change', () => this._fillSetTo() );
+		this.frameOf.addEventListener( 'change', () => {
+
+			this._fillSetTo();
+			this._clear(); // samples of another frame
+
+		} );
 		this.measuring.addEventListener( 'change', () => this._clear() );
 		this.takeButton.addEventListener( 'click', () => this.take() );
 		this.addButton.addEventListener( 'click', () => this.addTyped() );

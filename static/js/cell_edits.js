@@ -125,7 +125,13 @@ class CellEdits {
 		const unsaved = this.status?.unsaved;
 		if ( ! unsaved ) return;
 		this.shownVersion = unsaved.version;
-		this.diffText.textContent = unsaved.diff;
+		// One line each, coloured as diff -u reads: what goes, what comes, where.
+		this.diffText.replaceChildren( ...unsaved.diff.split( /(?<=\n)/ ).map( ( line ) => {
+
+			const kind = line.startsWith( '@@' ) ? 'hunk' : line.startsWith( '+' ) ? 'add' : line.startsWith( '-' ) ? 'del' : null;
+			return element( 'span', kind, line );
+
+		} ) );
 		this.diffEl.hidden = false;
 		this._render();
 
