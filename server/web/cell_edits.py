@@ -11,7 +11,9 @@ where one is set: the same rules as moves (``guards``).
 from __future__ import annotations
 
 import asyncio
-from typing import Annotated, Any
+import contextlib
+from collections.abc import Iterator
+from typing import Annotated, Any, TypeVar
 
 from fastapi import APIRouter, HTTPException, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
@@ -48,14 +50,29 @@ def _catalog(request: Request) -> Catalog:
     return catalog
 
 
-def _refused(exc: CommissioningError) -> HTTPException:
-    return HTTPException(exc.status, str(exc))
-
-
 def _allowed(editor: CellEditor) -> None:
     reason = editor.refusal()
     if reason is not None:
         raise HTTPException(403, reason)
+
+
+Body = TypeVar("Body", bound=BaseModel)
+
+
+async def _checked(request: Request, model: type[Body]) -> tuple[CellEditor, Body]:
+    """The editor, if edits are allowed (403 with how to allow them), and the request's body."""
+    editor = _editor(request)
+    _allowed(editor)
+    return editor, parse_body(model, await request.body())
+
+
+@contextlib.contextmanager
+def _answered() -> Iterator[None]:
+    """A refused edit as the HTTP error its status says."""
+    try:
+        yield
+    except CommissioningError as exc:
+        raise HTTPException(exc.status, str(exc)) from None
 
 
 @router.get("/cell")
@@ -68,11 +85,9 @@ async def cell(request: Request) -> dict[str, Any]:
 async def changes(request: Request) -> dict[str, Any]:
     """Make ``Changes`` and run them at once, unsaved; 422 naming what does not fit (then
     none of them is made)."""
-    editor = _editor(request)
-    _allowed(editor)
-    body = parse_body(Changes, await request.body())
+    editor, body = await _checked(request, Changes)
     runtime = runtime_of(request)
-    try:
+    with _answered():
         # Each decided against the cell as it runs now; all made together, or none.
         makers = [
             maker(change, runtime.cell, runtime.newest_values(), _catalog(request))
@@ -84,44 +99,30 @@ async def changes(request: Request) -> dict[str, Any]:
                 make(text)
 
         return await editor.change(make_all)
-    except CommissioningError as exc:
-        raise _refused(exc) from None
 
 
 @router.post("/cell/save")
 async def save(request: Request) -> dict[str, Any]:
     """Write the unsaved changes whose diff was shown (``Save``); the old file stays as .bak."""
-    editor = _editor(request)
-    _allowed(editor)
-    body = parse_body(Save, await request.body())
-    try:
+    editor, body = await _checked(request, Save)
+    with _answered():
         return await editor.save(body.version)
-    except CommissioningError as exc:
-        raise _refused(exc) from None
 
 
 @router.post("/cell/discard")
 async def discard(request: Request) -> dict[str, Any]:
     """Drop the unsaved changes: the file as saved runs again."""
-    editor = _editor(request)
-    _allowed(editor)
-    parse_body(Nothing, await request.body())
-    try:
+    editor, _ = await _checked(request, Nothing)
+    with _answered():
         return await editor.discard()
-    except CommissioningError as exc:
-        raise _refused(exc) from None
 
 
 @router.post("/cell/undo")
 async def undo(request: Request) -> dict[str, Any]:
     """Put back the file as it was before the last save (the two swap: undo again redoes)."""
-    editor = _editor(request)
-    _allowed(editor)
-    parse_body(Nothing, await request.body())
-    try:
+    editor, _ = await _checked(request, Nothing)
+    with _answered():
         return await editor.undo()
-    except CommissioningError as exc:
-        raise _refused(exc) from None
 
 
 @router.get("/descriptions")
@@ -161,11 +162,9 @@ async def description(id: str, request: Request) -> dict[str, Any]:
     """A listed description to preview: its links at zero joints and its joints."""
     _allowed(_editor(request))
     catalog = _catalog(request)
-    try:
+    with _answered():
         found = catalog.get(id)
         shown = await asyncio.to_thread(preview, found, catalog.packages(found))
-    except CommissioningError as exc:
-        raise _refused(exc) from None
     shown["file"] = runtime_of(request).cell.shown(str(found.path))
     shown["warnings"] = [runtime_of(request).cell.shown(w) for w in shown["warnings"]]
     return shown

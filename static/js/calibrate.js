@@ -313,15 +313,15 @@ class Calibration {
 		}
 		const measuring = this.result && this.views.get( this.result.measuring );
 		if ( ! measuring ) return;
-		const frame = new THREE.Group();
-		frame.name = 'fitted frame';
-		frame.matrixAutoUpdate = false;
-		frame.matrix.multiplyMatrices( matrixOf7( measuring.info.base ), matrixOfPoseVector( this.result.pose ) );
-		frame.matrixWorldNeedsUpdate = true;
+		const fitted = new THREE.Group();
+		fitted.name = 'fitted frame';
+		fitted.matrixAutoUpdate = false;
+		fitted.matrix.multiplyMatrices( matrixOf7( measuring.info.base ), matrixOfPoseVector( this.result.pose ) );
+		fitted.matrixWorldNeedsUpdate = true;
 		const axes = new THREE.AxesHelper( 0.15 );
 		axes.material.depthTest = false;
 		axes.renderOrder = 14;
-		frame.add( axes );
+		fitted.add( axes );
 		const lineMaterial = new THREE.LineBasicMaterial( { color: COLOR, depthTest: false } );
 		let points;
 		if ( this.result.radius !== undefined ) {
@@ -330,16 +330,16 @@ class Calibration {
 
 		} else {
 
-			const inverse = frame.matrix.clone().invert();
+			const inverse = fitted.matrix.clone().invert();
 			const along = this.samples.map( ( s ) => _v.fromArray( s.world ).applyMatrix4( inverse ).z );
 			points = [ new THREE.Vector3( 0, 0, Math.min( 0, ...along ) - 0.05 ), new THREE.Vector3( 0, 0, Math.max( 0, ...along ) + 0.05 ) ];
 
 		}
 		const line = new THREE.Line( new THREE.BufferGeometry().setFromPoints( points ), lineMaterial );
 		line.renderOrder = 14;
-		frame.add( line );
-		this.drawing.add( frame );
-		this.fittedWorld = frame.matrix.toArray();
+		fitted.add( line );
+		this.drawing.add( fitted );
+		this.fittedWorld = fitted.matrix.toArray();
 
 	}
 

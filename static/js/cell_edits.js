@@ -169,12 +169,12 @@ class CellEdits {
 
 	}
 
-	_set( status ) {
+	_set( cell ) {
 
-		this.status = status;
-		if ( this.shownVersion !== null && status.unsaved?.version !== this.shownVersion ) this._closeDiff();
+		this.status = cell;
+		if ( this.shownVersion !== null && cell.unsaved?.version !== this.shownVersion ) this._closeDiff();
 		this._render();
-		for ( const listener of this._listeners ) listener( status );
+		for ( const listener of this._listeners ) listener( cell );
 
 	}
 
@@ -188,14 +188,14 @@ class CellEdits {
 
 	_render() {
 
-		const status = this.status;
-		const unsaved = status?.unsaved ?? null;
+		const cell = this.status;
+		const unsaved = cell?.unsaved ?? null;
 		setText( this.stateEl, this.editable
-			? `Changes to ${status.path} run at once; nothing is written until you save.`
+			? `Changes to ${cell.path} run at once; nothing is written until you save.`
 			: this.whyNot );
 		this.bar.hidden = unsaved === null;
 		if ( unsaved ) setText( this.countEl, `${unsaved.changes} unsaved change${unsaved.changes === 1 ? '' : 's'}${unsaved.stale ? ' (the file changed on disk since)' : ''}` );
-		this.undoButton.hidden = ! status?.backup || unsaved !== null;
+		this.undoButton.hidden = ! cell?.backup || unsaved !== null;
 		for ( const control of this._guarded ) this._apply( control );
 		this.saveButton.disabled = this.saveButton.disabled || this.shownVersion === null;
 

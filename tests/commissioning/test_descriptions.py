@@ -21,36 +21,12 @@ import yourdfpy
 from scipy.spatial.transform import Rotation
 
 from server.config import Settings
+from tests.commissioning.cells import SOURCE, TODO_ARM
 from tests.conftest import running_server
 
 FIXTURES = Path(__file__).resolve().parents[1] / "urdf" / "fixtures"
 
-CELL = """\
-allow_edits = true
-
-[[source]]
-name = "line"
-
-# TODO: which URDF describes arm? (discover could not tell)
-[[robot]]
-name = "arm"
-source = "line"
-joints = [
-    { node = "motion/axs/A1/state/values/actual/pos" },
-    { node = "motion/axs/A2/state/values/actual/pos" },
-    { node = "motion/axs/A3/state/values/actual/pos" },
-    { node = "motion/axs/A4/state/values/actual/pos" },
-    { node = "motion/axs/A5/state/values/actual/pos" },
-    { node = "motion/axs/A6/state/values/actual/pos" },
-]
-demo_targets = [[10.0, 20.0, 30.0, 40.0, 50.0, 60.0]]
-
-[robot.kinematics]
-type = "dh"
-d = [300.0, 0.0, 0.0, 400.0, 0.0, 80.0]
-a = [0.0, 400.0, 50.0, 0.0, 0.0, 0.0]
-alpha_deg = [90.0, 0.0, 90.0, -90.0, 90.0, 0.0]
-"""
+CELL = "allow_edits = true\n\n" + SOURCE + TODO_ARM
 
 TWO_JOINTS = """<robot name="two">
   <link name="a"/><link name="b"/><link name="c"/>

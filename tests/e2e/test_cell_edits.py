@@ -18,23 +18,10 @@ import pytest
 
 from server.config import Settings
 from server.paths import DEMO_CELL
+from tests.commissioning.cells import SOURCE, STILL
 from tests.conftest import running_server
 
-CELL = """\
-# The commissioning test cell: this comment must survive every save.
-[[source]]
-name = "line"
-
-[[robot]]
-name = "still"   # held at one pose
-source = "line"
-kinematics = { type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }
-joints = [
-    { node = "plc/app/Application/sym/PLC_PRG/a0", unit = "deg", scale = 0.001 },
-    { node = "plc/app/Application/sym/PLC_PRG/a1", unit = "deg", scale = 0.001 },
-]
-demo_targets = [[10000.0, 20000.0]]
-"""
+CELL = "# The commissioning test cell: this comment must survive every save.\n" + SOURCE + STILL
 ENABLE = "--allow-edits"
 
 

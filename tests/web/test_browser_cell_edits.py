@@ -16,48 +16,15 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import Browser, Page
 
+from tests.commissioning.cells import SOURCE, STILL, TODO_ARM
 from tests.conftest import free_port
 from tests.web._browser import ROOT, open_page, post_json, server_process, watch
 
 TIMEOUT_MS = 120_000  # the page renders in software on a shared machine
 FIXTURES = ROOT / "tests" / "urdf" / "fixtures"
 
-STILL = """\
-# Commissioning test cell. This comment, and the order of the keys, must survive a save.
-[[source]]
-name = "line"
-
-[[robot]]
-name = "still"
-source = "line"
-kinematics = { type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }
-joints = [
-    { node = "plc/app/Application/sym/PLC_PRG/a0", unit = "deg", scale = 0.001 },
-    { node = "plc/app/Application/sym/PLC_PRG/a1", unit = "deg", scale = 0.001 },
-]
-demo_targets = [[10000.0, 20000.0]]
-
-# TODO: which URDF describes arm? linkview cannot compute its joint transformation.
-[[robot]]
-name = "arm"
-source = "line"
-base = { xyz = [1000.0, 0.0, 0.0], rpy_deg = [0.0, 0.0, 0.0] }
-joints = [
-    { node = "motion/axs/A1/state/values/actual/pos" },
-    { node = "motion/axs/A2/state/values/actual/pos" },
-    { node = "motion/axs/A3/state/values/actual/pos" },
-    { node = "motion/axs/A4/state/values/actual/pos" },
-    { node = "motion/axs/A5/state/values/actual/pos" },
-    { node = "motion/axs/A6/state/values/actual/pos" },
-]
-demo_targets = [[10.0, 20.0, 30.0, 40.0, 50.0, 60.0]]
-
-[robot.kinematics]
-type = "dh"
-d = [300.0, 0.0, 0.0, 400.0, 0.0, 80.0]
-a = [0.0, 400.0, 50.0, 0.0, 0.0, 0.0]
-alpha_deg = [90.0, 0.0, 90.0, -90.0, 90.0, 0.0]
-"""
+COMMENT = "# Commissioning test cell. This comment, and the order of the keys, must survive.\n"
+CELL = COMMENT + SOURCE + STILL + TODO_ARM
 
 
 def cell_in(tmp_path: Path) -> Path:
@@ -65,7 +32,7 @@ def cell_in(tmp_path: Path) -> Path:
     (folder / "arm_description" / "urdf").mkdir(parents=True)
     shutil.copy(FIXTURES / "serial6.urdf", folder / "arm_description" / "urdf" / "serial6.urdf")
     cell = folder / "cell.toml"
-    cell.write_text(STILL)
+    cell.write_text(CELL)
     return cell
 
 
@@ -111,7 +78,7 @@ def test_flipping_a_joints_sign_moves_the_model_at_once(browser: Browser, tmp_pa
         assert page.evaluate("window.linkview.mapping('still')[0].scale") == -0.001
         shown = page.evaluate("window.linkview.commission.edits")
         assert shown["unsaved"] == 1 and shown["diff"] is None
-        assert cell.read_text() == STILL  # nothing written yet
+        assert cell.read_text() == CELL  # nothing written yet
         watched.assert_clean()
 
 
@@ -151,12 +118,12 @@ def test_a_description_for_a_todo_robot_is_chosen_shown_as_a_diff_and_saved(
         page.wait_for_function("() => window.linkview.commission.edits.backup === 'cell.toml.bak'")
         watched.assert_clean()
     saved = cell.read_text()
-    assert (cell.parent / "cell.toml.bak").read_text() == STILL
+    assert (cell.parent / "cell.toml.bak").read_text() == CELL
     # The comments stay, and so does the order of every key that was there.
     assert [ln for ln in saved.splitlines() if ln.startswith("#")] == [
-        ln for ln in STILL.splitlines() if ln.startswith("#")
+        ln for ln in CELL.splitlines() if ln.startswith("#")
     ]
-    keys = [ln.split(" =")[0] for ln in STILL.splitlines() if " = " in ln and ln[0].isalpha()]
+    keys = [ln.split(" =")[0] for ln in CELL.splitlines() if " = " in ln and ln[0].isalpha()]
     kept = [ln.split(" =")[0] for ln in saved.splitlines() if " = " in ln and ln[0].isalpha()]
     # The [robot.kinematics] section (type, d, a, alpha_deg) became one inline key, last.
     assert keys[-4:] == ["type", "d", "a", "alpha_deg"]
@@ -194,4 +161,4 @@ def test_without_allow_edits_every_control_says_how_and_the_server_refuses(
         )
         assert status[0] == 403 and "--allow-edits" in status[1]
         watched.assert_clean(expected="Failed to load resource")
-    assert cell.read_text() == STILL
+    assert cell.read_text() == CELL

@@ -16,6 +16,7 @@ from pydantic import SecretStr
 
 from server.config import Settings
 from server.web.headers import content_security_policy
+from tests.commissioning.cells import SOURCE, STILL
 from tests.conftest import running_server
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -157,18 +158,7 @@ async def test_the_cookie_is_secure_only_behind_tls() -> None:
     assert behind_tls["set-cookie"].endswith("; Secure"), behind_tls["set-cookie"]
 
 
-EDITABLE = """\
-# a cell a cross-site page must not be able to change
-[[source]]
-name = "line"
-
-[[robot]]
-name = "still"
-source = "line"
-kinematics = { type = "type12" }
-joints = [{ node = "a0" }, { node = "a1" }]
-demo_targets = [[0.0, 0.0]]
-"""
+EDITABLE = "# a cell a cross-site page must not be able to change\n" + SOURCE + STILL
 EDITS = [
     ("/api/cell/changes",
      json.dumps({"changes": [{"op": "joint", "robot": "still", "joint": "a0", "scale": -1.0}]})),
