@@ -9,6 +9,8 @@ Denavit-Hartenberg arm with no meshes and a ``TODO`` for its description, as
 
 from __future__ import annotations
 
+from pathlib import Path
+
 SOURCE = """\
 [[source]]
 name = "line"
@@ -48,3 +50,10 @@ d = [300.0, 0.0, 0.0, 400.0, 0.0, 80.0]
 a = [0.0, 400.0, 50.0, 0.0, 0.0, 0.0]
 alpha_deg = [90.0, 0.0, 90.0, -90.0, 90.0, 0.0]
 """
+
+
+def cell_file(folder: Path, text: str) -> Path:
+    """``folder/cell.toml`` holding ``text``."""
+    path = folder / "cell.toml"
+    path.write_text(text)
+    return path

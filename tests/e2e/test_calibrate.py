@@ -29,6 +29,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from server.config import Settings
+from tests.commissioning.cells import cell_file as written
 from tests.conftest import running_server
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -187,9 +188,7 @@ async def touch(http: aiohttp.ClientSession, base: str, point_world: np.ndarray)
 
 @pytest.fixture
 def cell_file(tmp_path: Path) -> Path:
-    path = tmp_path / "cell.toml"
-    path.write_text(CELL)
-    return path
+    return written(tmp_path, CELL)
 
 
 async def test_a_turntable_calibrated_from_three_tcp_samples_lands_where_it_is(

@@ -19,6 +19,7 @@ import pytest
 from server.config import Settings
 from server.paths import DEMO_CELL
 from tests.commissioning.cells import SOURCE, STILL
+from tests.commissioning.cells import cell_file as written
 from tests.conftest import running_server
 
 CELL = "# The commissioning test cell: this comment must survive every save.\n" + SOURCE + STILL
@@ -54,9 +55,7 @@ async def until(check: Any, timeout_s: float = 20.0) -> None:
 
 @pytest.fixture
 def cell_file(tmp_path: Path) -> Path:
-    path = tmp_path / "cell.toml"
-    path.write_text(CELL)
-    return path
+    return written(tmp_path, CELL)
 
 
 async def test_without_allow_edits_every_write_is_refused_with_how_to_allow_it(

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 from playwright.sync_api import Browser, Page
 
-from tests.commissioning.cells import SOURCE, STILL, TODO_ARM
+from tests.commissioning.cells import SOURCE, STILL, TODO_ARM, cell_file
 from tests.conftest import free_port
-from tests.web._browser import ROOT, open_page, post_json, server_process, watch
+from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
 
 TIMEOUT_MS = 120_000  # the page renders in software on a shared machine
 FIXTURES = ROOT / "tests" / "urdf" / "fixtures"
@@ -31,9 +31,7 @@ def cell_in(tmp_path: Path) -> Path:
     folder = tmp_path / "cell"
     (folder / "arm_description" / "urdf").mkdir(parents=True)
     shutil.copy(FIXTURES / "serial6.urdf", folder / "arm_description" / "urdf" / "serial6.urdf")
-    cell = folder / "cell.toml"
-    cell.write_text(CELL)
-    return cell
+    return cell_file(folder, CELL)
 
 
 def robots(url: str) -> dict[str, Any]:
@@ -41,11 +39,15 @@ def robots(url: str) -> dict[str, Any]:
         return {r["name"]: r for r in json.loads(response.read())}
 
 
-def open_for(page: Page, url: str, robot: str) -> None:
+def open_for(browser: Browser, url: str, robot: str) -> Watched:
+    """A page of the server at ``url``, commissioning ``robot``; what it logs is watched."""
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    watched = watch(page)
     page.set_default_timeout(TIMEOUT_MS)
     open_page(page, f"{url}/?quality=5", TIMEOUT_MS)
     page.select_option("#selected-robot", robot)
     page.wait_for_function(f"() => window.linkview.commission.robot === '{robot}'")
+    return watched
 
 
 def drawn_links(page: Page, robot: str) -> np.ndarray:
@@ -58,9 +60,8 @@ def test_flipping_a_joints_sign_moves_the_model_at_once(browser: Browser, tmp_pa
     cell = cell_in(tmp_path)
     log = tmp_path / "server.log"
     with server_process(free_port(), log, "--cell", str(cell), "--allow-edits") as url:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        watched = watch(page)
-        open_for(page, url, "still")
+        watched = open_for(browser, url, "still")
+        page = watched.page
         page.locator('article.robot[data-robot="still"] details.mapping summary').click()
         page.get_by_label("flip the sign of a0 of still").click()
         # The server runs the change at once: the still robot's a0 reads -10 degrees now.
@@ -89,9 +90,8 @@ def test_a_description_for_a_todo_robot_is_chosen_shown_as_a_diff_and_saved(
     log = tmp_path / "server.log"
     env = {"LINKVIEW_CACHE_DIR": str(tmp_path / "cache")}
     with server_process(free_port(), log, "--cell", str(cell), "--allow-edits", env=env) as url:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        watched = watch(page)
-        open_for(page, url, "arm")
+        watched = open_for(browser, url, "arm")
+        page = watched.page
         page.get_by_label("list the robot descriptions on the server's machine").click()
         page.wait_for_function("() => window.linkview.commission.describe.found.length > 0")
         found = page.evaluate("window.linkview.commission.describe.found")
@@ -137,9 +137,8 @@ def test_without_allow_edits_every_control_says_how_and_the_server_refuses(
 ) -> None:
     cell = cell_in(tmp_path)
     with server_process(free_port(), tmp_path / "server.log", "--cell", str(cell)) as url:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        watched = watch(page)
-        open_for(page, url, "arm")
+        watched = open_for(browser, url, "arm")
+        page = watched.page
         page.locator('article.robot[data-robot="still"] details.mapping summary').click()
         page.wait_for_function("() => window.linkview.commission.edits.whyNot !== null")
         shown = page.evaluate("window.linkview.commission")
