@@ -163,7 +163,7 @@ def check(argv: list[str]) -> int:
     status = 0
     for name in parser.parse_args(argv).files:
         try:
-            cell = load_cell(Path(name))
+            cell = load_cell(Path(name), stand_ins=False)  # a missing URDF is a mistake here
         except CellError as exc:
             print(exc, file=sys.stderr)
             status = 1

@@ -28,7 +28,8 @@ def configured_cell(settings: Settings, path: Path | None = None, text: str | No
         cell = replay_cell(settings.replay, path or settings.cell)
     else:
         target = path or settings.cell or DEMO_CELL
-        cell = with_controller(load_cell(target, text=text), settings)
+        loaded = load_cell(target, text=text, stand_ins=settings.allow_edits or None)
+        cell = with_controller(loaded, settings)
     for robot in cell.robots:
         for warning in robot.warnings:
             log.warning("robot %s: %s", robot.name, warning)

@@ -181,7 +181,7 @@ class CellEdits {
 	_apply( control ) {
 
 		const why = this.whyNot;
-		control.disabled = why !== null || control.dataset.busy === 'true';
+		control.disabled = why !== null;
 		control.title = why ?? control.getAttribute( 'aria-label' ) ?? '';
 
 	}

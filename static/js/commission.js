@@ -167,6 +167,7 @@ class Commissioning {
 			calibration: this.calibration.shown(),
 			describe: this.describe.shown(),
 			controls: controls.map( ( el ) => ( { label: el.getAttribute( 'aria-label' ) ?? el.textContent, disabled: el.disabled, title: el.title } ) ),
+			gizmo: this.gizmoHelper.visible ? this.gizmo.object?.name ?? null : null,
 		};
 
 	}

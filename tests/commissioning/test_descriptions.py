@@ -20,8 +20,9 @@ import pytest
 import yourdfpy
 from scipy.spatial.transform import Rotation
 
+from server.cell import CellError, load_cell
 from server.config import Settings
-from tests.commissioning.cells import SOURCE, TODO_ARM
+from tests.commissioning.cells import SOURCE, TODO_ARM, TODO_URDF_ARM
 from tests.conftest import running_server
 
 FIXTURES = Path(__file__).resolve().parents[1] / "urdf" / "fixtures"
@@ -152,3 +153,29 @@ async def test_a_ros_description_names_the_packages_only_the_ros_path_knows(
             status = await response.json()
             assert response.status == 200, status
         assert f'packages = {{ six_meshes = "{meshes}" }}' in status["unsaved"]["diff"]
+
+
+async def test_a_robot_whose_urdf_is_not_there_runs_as_a_placeholder_where_edits_are_allowed(
+    machine: Path, tmp_path: Path
+) -> None:
+    cell = machine / "cell.toml"
+    cell.write_text(SOURCE + TODO_URDF_ARM)
+    # `check` and a server that may not edit name the missing file, as before.
+    with pytest.raises(CellError, match=r"kinematics\.file: URDF file .*arm\.urdf not found"):
+        load_cell(cell, cache_dir=tmp_path / "cache")
+    async with running_server(Settings(cell=cell, allow_edits=True)) as base:
+        async with aiohttp.ClientSession() as http:
+            (arm,) = await get(http, f"{base}/api/robots")
+            assert [j["name"] for j in arm["joints"]] == ["j1", "j2", "j3", "j4", "j5", "j6"]
+            assert "arm.urdf is not there: drawn as a placeholder chain" in arm["warnings"][0]
+            listing = await get(http, f"{base}/api/descriptions?robot=arm")
+            (mine,) = [d for d in listing["found"] if d["file"] == "arm/serial6.urdf"]
+            choose = {"op": "description", "robot": "arm", "id": mine["id"]}
+            async with http.post(f"{base}/api/cell/changes", json={"changes": [choose]}) as r:
+                status = await r.json()
+                assert r.status == 200, status
+            diff = status["unsaved"]["diff"]
+            assert '-kinematics = { type = "urdf", file = "arm.urdf" }' in diff
+            assert '+kinematics = { type = "urdf", file = "arm/serial6.urdf" }' in diff
+            (arm,) = await get(http, f"{base}/api/robots")
+            assert arm["warnings"] == [] and len(arm["links"]) == 9
