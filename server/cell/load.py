@@ -11,7 +11,6 @@ mistake does not hide the others (``server.cell._validate``).
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import tomllib
 from collections.abc import Callable, Mapping
@@ -280,14 +279,12 @@ class _Builder:
         key = self._key("robot", index)
         missing = missing_description(spec, self.where) if self.stand_ins else None
         try:
-            table = spec.kinematics.model_dump_json()
             if missing is not None:
-                built = placeholder(spec, self.where)
-                note = f"its description {missing} is not there: drawn as a placeholder chain"
-                built = dataclasses.replace(built, warnings=(f"{note} until one is picked",))
-            elif table not in self._built:
-                self._built[table] = build(spec.kinematics, self.where)
-            if missing is None:
+                built = placeholder(spec, self.where, missing)
+            else:
+                table = spec.kinematics.model_dump_json()
+                if table not in self._built:
+                    self._built[table] = build(spec.kinematics, self.where)
                 built = self._built[table]
         except SpecError as exc:
             self._report((f"{key}.kinematics.{exc.key}", str(exc)))

@@ -14,6 +14,7 @@ URDF written into the mesh cache, named by its content, and loaded as any.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from xml.sax.saxutils import quoteattr
 
@@ -52,12 +53,15 @@ def _urdf(joints: list[schema.Joint]) -> str:
     return "\n".join([*lines, "</robot>", ""])
 
 
-def placeholder(spec: schema.Robot, where: Where) -> Built:
-    """A chain of one joint per joints entry, standing in for the missing description."""
+def placeholder(spec: schema.Robot, where: Where, missing: str) -> Built:
+    """A chain of one joint per joints entry, standing in for the description at ``missing``,
+    with a warning that says so."""
     text = _urdf(spec.joints)
     folder = where.cache_dir / FOLDER
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{hashlib.sha256(text.encode()).hexdigest()[:16]}.urdf"
     if not path.exists():
         path.write_text(text, encoding="utf-8")
-    return build(schema.Urdf(type="urdf", file=str(path)), where)
+    built = build(schema.Urdf(type="urdf", file=str(path)), where)
+    note = f"its description {missing} is not there: drawn as a placeholder chain"
+    return dataclasses.replace(built, warnings=(f"{note} until one is picked",))
