@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..cell import Robot
 from ..kinematics import (
@@ -28,7 +29,7 @@ from ..kinematics import (
 from ..kinematics._rotations import rot_z
 from .errors import CommissioningError
 
-Array = Any  # npt.NDArray[np.float64]; numpy's stubs make 4x4 algebra noisy to annotate
+Array = npt.NDArray[np.float64]
 
 
 def base_matrix(robot: Robot) -> Array:
