@@ -168,9 +168,11 @@ class Calibration {
 	_fillSetTo() {
 
 		const axis = this.frameOf.value;
+		const keep = this.setTo.value;
 		const options = [ new Option( `${this.view?.name ?? 'its'} base`, 'base' ) ];
 		if ( axis ) options.push( new Option( `axis ${axis}'s pose in its parent`, 'axis' ) );
 		this.setTo.replaceChildren( ...options );
+		if ( options.some( ( option ) => option.value === keep ) ) this.setTo.value = keep;
 
 	}
 
@@ -262,7 +264,7 @@ class Calibration {
 			joints: first.joints, axis: this.frameOf.value || null, set: this.setTo.value,
 		};
 		const result = await this.edits.change( [ change ] );
-		if ( result.ok ) this._say( `Applied: ${this.view.name} placed by the fit (unsaved).` );
+		if ( result.ok ) this._say( `Applied: ${this.view.name} placed by the fit.` );
 
 	}
 
