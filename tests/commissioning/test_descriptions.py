@@ -70,6 +70,14 @@ async def get(http: aiohttp.ClientSession, url: str) -> Any:
         return answer
 
 
+async def change(http: aiohttp.ClientSession, base: str, made: dict[str, Any]) -> Any:
+    """``POST /api/cell/changes`` with one change; the cell's state after it (200 expected)."""
+    async with http.post(f"{base}/api/cell/changes", json={"changes": [made]}) as response:
+        answer = await response.json()
+        assert response.status == 200, answer
+        return answer
+
+
 def matrix(pose7: list[float]) -> np.ndarray:
     pose = np.eye(4)
     pose[:3, :3] = Rotation.from_quat(pose7[3:]).as_matrix()
@@ -108,9 +116,7 @@ async def test_descriptions_with_the_robots_joints_are_found_previewed_and_chose
 
         order = ["j1", "j2", "j3", "j4", "j6", "j5"]  # the last two nodes swapped round
         choose = {"op": "description", "robot": "arm", "id": mine["id"], "joints": order}
-        async with http.post(f"{base}/api/cell/changes", json={"changes": [choose]}) as response:
-            status = await response.json()
-            assert response.status == 200, status
+        status = await change(http, base, choose)
         diff = status["unsaved"]["diff"]
         assert '+kinematics = { type = "urdf", file = "arm/serial6.urdf" }' in diff
         assert '+    { node = "motion/axs/A5/state/values/actual/pos", joint = "j6" },' in diff
@@ -149,9 +155,7 @@ async def test_a_ros_description_names_the_packages_only_the_ros_path_knows(
         listing = await get(http, f"{base}/api/descriptions?robot=arm")
         (ros,) = [d for d in listing["found"] if d["origin"] == "ROS packages"]
         choose = {"op": "description", "robot": "arm", "id": ros["id"]}
-        async with http.post(f"{base}/api/cell/changes", json={"changes": [choose]}) as response:
-            status = await response.json()
-            assert response.status == 200, status
+        status = await change(http, base, choose)
         assert f'packages = {{ six_meshes = "{meshes}" }}' in status["unsaved"]["diff"]
 
 
@@ -171,9 +175,7 @@ async def test_a_robot_whose_urdf_is_not_there_runs_as_a_placeholder_where_edits
             listing = await get(http, f"{base}/api/descriptions?robot=arm")
             (mine,) = [d for d in listing["found"] if d["file"] == "arm/serial6.urdf"]
             choose = {"op": "description", "robot": "arm", "id": mine["id"]}
-            async with http.post(f"{base}/api/cell/changes", json={"changes": [choose]}) as r:
-                status = await r.json()
-                assert r.status == 200, status
+            status = await change(http, base, choose)
             diff = status["unsaved"]["diff"]
             assert '-kinematics = { type = "urdf", file = "arm.urdf" }' in diff
             assert '+kinematics = { type = "urdf", file = "arm/serial6.urdf" }' in diff
