@@ -61,6 +61,13 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
     )
     if web is not None:
         web.add_argument(
+            "--allow-edits",
+            action="store_true",
+            default=None,
+            help="let the page change the cell file and save it (docs/commissioning.md)",
+        )
+    if web is not None:
+        web.add_argument(
             "--viewer-token",
             metavar="SECRET",
             help="require this token on the page, /ws and /api (open the page with ?token=SECRET)",
@@ -126,6 +133,7 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
         "port": args.port,
         "cell": args.cell,
         "allow_commands": args.allow_commands,
+        "allow_edits": getattr(args, "allow_edits", None),
         "viewer_token": args.viewer_token,
         "allow_origin": args.allow_origin,
         "allow_host": args.allow_host,
@@ -155,7 +163,7 @@ def check(argv: list[str]) -> int:
     status = 0
     for name in parser.parse_args(argv).files:
         try:
-            cell = load_cell(Path(name))
+            cell = load_cell(Path(name), stand_ins=False)  # a missing URDF is a mistake here
         except CellError as exc:
             print(exc, file=sys.stderr)
             status = 1

@@ -24,6 +24,8 @@ class Settings(BaseSettings):
     """The cell file (TOML, see docs/cell.md); None: the shipped demo cell."""
     allow_commands: bool = False
     """Let the page move robots of real controllers too (embedded mocks always may)."""
+    allow_edits: bool = False
+    """Let the page change the cell file and save it (docs/commissioning.md)."""
     viewer_token: SecretStr | None = None
     """Required on the page, /ws and /api/* when set (``?token=`` in a link sets a cookie)."""
     allow_origin: list[str] = []

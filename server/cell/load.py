@@ -27,6 +27,7 @@ from . import schema
 from ._validate import Validated, validate
 from .families import Built, SpecError, Where, build, pose_matrix
 from .mesh_files import glb_problem
+from .placeholder import missing_description, placeholder
 from .robot import Joint, Robot
 from .shown import relative_paths
 
@@ -136,17 +137,27 @@ def default_cache_dir() -> Path:
 
 
 def load_cell(
-    path: Path, env: Mapping[str, str] | None = None, cache_dir: Path | None = None
+    path: Path,
+    env: Mapping[str, str] | None = None,
+    cache_dir: Path | None = None,
+    text: str | None = None,
+    stand_ins: bool | None = None,
 ) -> Cell:
     """The cell described by the TOML file at ``path``; raises CellError.
 
     ``env`` supplies passwords (default: the environment); ``cache_dir`` keeps
-    URDF meshes converted to GLB (default: ``default_cache_dir()``).
+    URDF meshes converted to GLB (default: ``default_cache_dir()``). ``text``:
+    the file's contents as they would be (an edit not yet saved), read instead
+    of the file; relative paths still start at ``path``'s folder. ``stand_ins``
+    (None: where the file says ``allow_edits = true``): a robot whose URDF file
+    is not there runs as a placeholder chain, with a warning, instead of
+    failing the cell (its description is picked on the page;
+    ``server.cell.placeholder``).
     """
     env = os.environ if env is None else env
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        raw = tomllib.loads(path.read_text(encoding="utf-8") if text is None else text)
     except FileNotFoundError:
         raise CellError(path, [("(file)", "no such file")]) from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -154,16 +165,24 @@ def load_cell(
     except tomllib.TOMLDecodeError as exc:
         raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
     where = Where(path.resolve().parent, cache_dir or default_cache_dir())
-    return _Builder(path, validate(raw), env, where).cell()
+    if stand_ins is None:
+        stand_ins = raw.get("allow_edits") is True
+    return _Builder(path, validate(raw), env, where, stand_ins).cell()
 
 
 class _Builder:
     """Checks across keys and builds the SI objects, collecting every problem."""
 
     def __init__(
-        self, path: Path, validated: Validated, env: Mapping[str, str], where: Where
+        self,
+        path: Path,
+        validated: Validated,
+        env: Mapping[str, str],
+        where: Where,
+        stand_ins: bool = False,
     ) -> None:
         self.path = path
+        self.stand_ins = stand_ins
         self.where = where
         self.valid = validated
         self.env = env
@@ -269,11 +288,15 @@ class _Builder:
 
     def _robot(self, index: int, spec: schema.Robot) -> Robot | None:
         key = self._key("robot", index)
+        missing = missing_description(spec, self.where) if self.stand_ins else None
         try:
-            table = spec.kinematics.model_dump_json()
-            if table not in self._built:
-                self._built[table] = build(spec.kinematics, self.where)
-            built = self._built[table]
+            if missing is not None:
+                built = placeholder(spec, self.where, missing)
+            else:
+                table = spec.kinematics.model_dump_json()
+                if table not in self._built:
+                    self._built[table] = build(spec.kinematics, self.where)
+                built = self._built[table]
         except SpecError as exc:
             self._report((f"{key}.kinematics.{exc.key}", str(exc)))
             return None

@@ -221,5 +221,7 @@ class Robot(_Strict):
 class Cell(_Strict):
     """A whole cell file."""
 
+    allow_edits: bool = False
+    """Let the page change this file (as ``--allow-edits``; docs/commissioning.md)."""
     source: list[Source] = Field(min_length=1)
     robot: list[Robot] = Field(min_length=1)

@@ -6,6 +6,7 @@ and moves robots on request where that is allowed.
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import secrets
 from dataclasses import dataclass, field
@@ -68,6 +69,7 @@ class Runtime:
     session: str = field(default_factory=lambda: secrets.token_hex(8))
     history: History = field(default_factory=lambda: History(SourceDefaults.history_s))
     """Every source's recent samples (the timeline, recordings, the Foxglove endpoint)."""
+    _applying: asyncio.Lock = field(default_factory=asyncio.Lock, repr=False)
 
     @classmethod
     async def start(cls, cell: Cell, defaults: SourceDefaults | None = None) -> Runtime:
@@ -78,7 +80,15 @@ class Runtime:
         return runtime
 
     async def apply(self, cell: Cell) -> None:
-        """Run ``cell``: restart the sources it changes, keep the others, tell every viewer."""
+        """Run ``cell``: restart the sources it changes, keep the others, tell every viewer.
+
+        One at a time: the file watcher and an edit from the page may both apply a cell,
+        and two interleaved would each start a source of the same name.
+        """
+        async with self._applying:
+            await self._apply(cell)
+
+    async def _apply(self, cell: Cell) -> None:
         indices = {robot.name: i for i, robot in enumerate(cell.robots)}
         wanted = {s.name: s for s in cell.sources}
         kept: dict[str, RunningSource] = {}

@@ -16,17 +16,20 @@ from .source import SourceDefaults
 log = logging.getLogger(__name__)
 
 
-def configured_cell(settings: Settings, path: Path | None = None) -> Cell:
+def configured_cell(settings: Settings, path: Path | None = None, text: str | None = None) -> Cell:
     """The cell file ``path`` (default: the settings', else the demo cell), ``--ctrlx`` applied.
 
     ``--ctrlx URL`` (with ``LINKVIEW_CTRLX_*``) points a one-source cell at a
     controller, which is how the demo cell meets real hardware without a file.
-    With ``--replay FILE`` every source plays that recording instead.
+    With ``--replay FILE`` every source plays that recording instead. ``text``:
+    the file as edited on the page, not yet saved (``server.commissioning``).
     """
     if settings.replay is not None:
         cell = replay_cell(settings.replay, path or settings.cell)
     else:
-        cell = with_controller(load_cell(path or settings.cell or DEMO_CELL), settings)
+        target = path or settings.cell or DEMO_CELL
+        loaded = load_cell(target, text=text, stand_ins=settings.allow_edits or None)
+        cell = with_controller(loaded, settings)
     for robot in cell.robots:
         for warning in robot.warnings:
             log.warning("robot %s: %s", robot.name, warning)

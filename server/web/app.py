@@ -17,6 +17,7 @@ from fastapi.staticfiles import StaticFiles
 from ..cell import Cell
 from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
+from ..commissioning import Catalog, CellEditor
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
 from ..hosts import HostPolicy
@@ -27,7 +28,7 @@ from ..runtime import Runtime
 from ..runtime.loop_lag import LoopLag
 from ..runtime.reload import follow_cell_file
 from ..runtime.startup import configured_cell, source_defaults, with_controller
-from . import clearance, history, metrics, routes, transformation, ws
+from . import calibrate, cell_edits, clearance, history, metrics, routes, transformation, ws
 from .guards import Gatekeeper, LimitBody
 from .headers import SecurityHeaders
 
@@ -50,6 +51,13 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
         else:  # a replica of a cluster: its frames come through the broker
             runtime = await Replica.open(start, source_defaults(settings), broker)
         app.state.runtime = runtime
+        app.state.editor = CellEditor(
+            runtime,
+            functools.partial(configured_cell, settings),
+            settings.allow_edits,
+            _never_edited(settings),
+        )
+        app.state.catalog = Catalog()
         stop = asyncio.Event()
         watcher = None
         path = runtime.cell.path
@@ -92,6 +100,8 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     app.include_router(metrics.router)
     app.include_router(history.router)
     app.include_router(clearance.router)
+    app.include_router(calibrate.router)
+    app.include_router(cell_edits.router)
     app.mount("/static", StaticFiles(directory=STATIC_DIR, check_dir=False), name="static")
     return app
 
@@ -117,6 +127,15 @@ async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio
         else:
             tasks.append(asyncio.create_task(endpoint.run(), name="foxglove"))
     return tasks
+
+
+def _never_edited(settings: Settings) -> str | None:
+    """Why this server never changes its cell file, whatever ``--allow-edits`` says."""
+    if settings.replay is not None:
+        return "a recording being replayed is not edited: serve its cell file with --cell FILE"
+    if settings.broker is not None:
+        return "a cluster's cell is edited in its file, not from the page (each process reloads it)"
+    return None
 
 
 async def _validation_error(request: Request, exc: Exception) -> JSONResponse:

@@ -113,10 +113,11 @@ class MoveRequest(_Body):
     joints: JointRow
 
 
-Body = TypeVar("Body", bound=_Body)
+Body = TypeVar("Body", bound=BaseModel)
 
 
-def _parse(model: type[Body], raw: bytes) -> Body:
+def parse_body(model: type[Body], raw: bytes) -> Body:
+    """``raw`` (a request's JSON body) as ``model``; a 422 naming each bad field otherwise."""
     try:
         return model.model_validate_json(raw)
     except ValidationError as exc:
@@ -131,7 +132,7 @@ def _robot(request: Request, name: str) -> Robot:
 
 
 def _forward(robot: Robot, raw: bytes) -> bytes:
-    body = _parse(ForwardRequest, raw)
+    body = parse_body(ForwardRequest, raw)
     if body.links and len(body.joints) > MAX_LINK_ROWS:
         raise HTTPException(422, f"with links, at most {MAX_LINK_ROWS} rows per call")
     answer: dict[str, list[Any]] = {}
@@ -151,7 +152,7 @@ def _forward(robot: Robot, raw: bytes) -> bytes:
 
 
 def _inverse(robot: Robot, raw: bytes) -> bytes:
-    body = _parse(InverseRequest, raw)
+    body = parse_body(InverseRequest, raw)
     try:
         result = transformation.inverse(robot, body.tcp, body.joints_ref, body.all)
     except transformation.TransformInputError as exc:
@@ -181,7 +182,7 @@ async def inverse(name: str, request: Request) -> Response:
 async def move(name: str, request: Request) -> dict[str, Any]:
     """Command a synchronised move to ``joints`` (``MoveRequest``); 403 where not allowed."""
     robot = _robot(request, name)
-    body = _parse(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
+    body = parse_body(MoveRequest, await request.body())  # a few floats: cheap enough on the loop
     try:
         async with running.slot():
             await runtime_of(request).move(robot, body.joints)

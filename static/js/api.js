@@ -75,4 +75,4 @@ function wantClearance() {
 
 }
 
-export { forward, inverse, move, reason, wantClearance };
+export { forward, inverse, move, post, reason, wantClearance };

@@ -1,4 +1,5 @@
 import { ClearanceWarning } from './clearance.js';
+import { Commissioning } from './commission.js';
 import { ServerClock, nowMs } from './clock.js';
 import { Following } from './following.js';
 import { Hud } from './hud.js';
@@ -45,7 +46,8 @@ class App {
 			onFocus: ( name ) => this.focus( name ),
 		} );
 		this.labels = new Labels( root.getElementById( 'labels' ) );
-		this.mapping = new MappingTables( root );
+		this.commission = new Commissioning( root, this.stage ); // docs/commissioning.md
+		this.mapping = new MappingTables( root, this.commission.mapping.decorate );
 		this.following = new Following( root, this.stage.world );
 		this.clock = new ServerClock();
 		this.plots = new JointPlots( root.getElementById( 'plots' ), root.getElementById( 'plot-velocity' ) );
@@ -203,6 +205,7 @@ class App {
 		this.hud.setHello( hello, this.views );
 		this.mapping.setHello( hello );
 		this.following.setHello( hello, this.views );
+		this.commission.setHello();
 		if ( ! rebuilt ) return;
 		this.timeline.goLive(); // the history shown described the robots gone by
 		this.labels.rebuild( this.views );
@@ -226,6 +229,7 @@ class App {
 		const history = view ? this.timeline.plotHistory( name ) ?? this.robots.histories.get( name ) : null;
 		this.plots.show( history, view ? `#${view.color.getHexString()}` : '' );
 		this.sim.setRobot( view );
+		this.commission.setRobot( view, this.views );
 
 	}
 
@@ -339,6 +343,7 @@ class App {
 		window.removeEventListener( 'keydown', this._onKey );
 		this.stage.setAnimationLoop( null );
 		this.sim.dispose();
+		this.commission.dispose();
 		this.following.dispose();
 		this.plots.dispose();
 		this.panels.dispose();

@@ -87,6 +87,12 @@ window.linkview = Object.freeze( {
 		return app.following.shown( name );
 
 	},
+	/** Commissioning: edits allowed (or why not), unsaved changes, placing, calibration, description. */
+	get commission() {
+
+		return app.commission.shown();
+
+	},
 	/** The clearance toggle: { on, text, near, highlighted: [[robot, link name], ...] }. */
 	get clearance() {
 

@@ -32,9 +32,10 @@ function number( value, digits = 3 ) {
  */
 class MappingTables {
 
-	constructor( root ) {
+	constructor( root, decorate = null ) {
 
 		this.root = root;
+		this.decorate = decorate; // ( robot, rows ) => void: a table built (mapping_edit.js)
 		this._tables = new Map(); // robot name -> { robot, rows }
 
 	}
@@ -61,10 +62,9 @@ class MappingTables {
 				row.dataset.joint = joint.name;
 				const raw = element( 'td', 'raw', '—' );
 				const value = element( 'td', 'value', '—' );
-				row.append(
-					element( 'td', 'name', joint.name ), raw,
-					element( 'td', 'scale', String( joint.scale ) ), element( 'td', 'offset', String( joint.offset ) ), value,
-				);
+				const scale = element( 'td', 'scale', String( joint.scale ) );
+				const offset = element( 'td', 'offset', String( joint.offset ) );
+				row.append( element( 'td', 'name', joint.name ), raw, scale, offset, value );
 				const where = element( 'tr', 'nodes' );
 				const node = element( 'td', 'node' );
 				node.colSpan = 5;
@@ -72,12 +72,13 @@ class MappingTables {
 				if ( joint.setpoint ) node.append( element( 'div', 'muted', `setpoint ${joint.setpoint}` ) );
 				where.append( node );
 				table.append( row, where );
-				return { joint, raw, value };
+				return { joint, raw, value, scale, offset, where };
 
 			} );
 			details.append( table );
 			card.append( details );
 			this._tables.set( robot.name, { robot, rows } );
+			this.decorate?.( robot, rows );
 
 		}
 

@@ -16,6 +16,7 @@ from pydantic import SecretStr
 
 from server.config import Settings
 from server.web.headers import content_security_policy
+from tests.commissioning.cells import SOURCE, STILL
 from tests.conftest import running_server
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -155,3 +156,43 @@ async def test_the_cookie_is_secure_only_behind_tls() -> None:
         )
     assert "HttpOnly" in plain["set-cookie"] and "Secure" not in plain["set-cookie"]
     assert behind_tls["set-cookie"].endswith("; Secure"), behind_tls["set-cookie"]
+
+
+EDITABLE = "# a cell a cross-site page must not be able to change\n" + SOURCE + STILL
+EDITS = [
+    ("/api/cell/changes",
+     json.dumps({"changes": [{"op": "joint", "robot": "still", "joint": "a0", "scale": -1.0}]})),
+    ("/api/cell/save", json.dumps({"version": "0" * 64})),
+    ("/api/cell/discard", "{}"),
+    ("/api/cell/undo", "{}"),
+]  # fmt: skip
+
+
+async def test_a_cross_site_page_cannot_change_the_cell(tmp_path: Path) -> None:
+    cell = tmp_path / "cell.toml"
+    cell.write_text(EDITABLE)
+    settings = Settings(cell=cell, allow_edits=True, viewer_token=SecretStr("t0ken"))
+    auth = {"Authorization": "Bearer t0ken"}
+    async with running_server(settings) as base:
+        for path, body in EDITS:
+            evil = {**auth, "Origin": "https://evil.example"}
+            for kind in ("application/json", "text/plain", "application/x-www-form-urlencoded"):
+                status, _, text = await request(
+                    base, "POST", path, {**evil, "Content-Type": kind}, body
+                )
+                assert status == 403 and "--allow-origin" in text, (path, kind, status, text)
+            # The page's own origin, but a "simple" request: refused before any route.
+            own = {**auth, "Origin": base, "Content-Type": "text/plain"}
+            assert (await request(base, "POST", path, own, body))[0] == 415
+            # Without the token, nobody gets in; a rebinding page names its own host.
+            json_type = {"Content-Type": "application/json"}
+            assert (await request(base, "POST", path, json_type, body))[0] == 401
+            rebinding = {**auth, **json_type, "Host": "evil.example", "Origin": "http://evil.example"}
+            assert (await request(base, "POST", path, rebinding, body))[0] == 403
+        for path in ("/api/cell", "/api/descriptions?robot=still"):
+            assert (await request(base, "GET", path, {}))[0] == 401
+        # The page's own JSON request with the token changes it (unsaved until saved).
+        own = {**auth, "Origin": base, "Content-Type": "application/json"}
+        status, _, text = await request(base, "POST", EDITS[0][0], own, EDITS[0][1])
+        assert status == 200, text
+    assert cell.read_text() == EDITABLE
