@@ -144,8 +144,10 @@ def test_check_passes_on_a_cell_of_the_whole_corpus(tmp_path: Path, cache: Path)
 def test_a_legged_robot_on_a_floating_root(tmp_path: Path) -> None:
     # As a simulation scene puts it into a world: the vendor's file included unchanged
     # (its relative mesh paths still resolve from its own folder), its trunk hung from
-    # the world by a floating joint.
+    # the world by a floating joint. The vendor's folder is a package the cell names: a
+    # description reads only its own folder, the cell's and its packages.
     a1 = next(robot for robot in CORPUS if robot.name == "a1")
+    packages = {"a1_description": a1.path.parent}
     scene = tmp_path / "a1_in_world.urdf.xacro"
     scene.write_text(
         '<robot name="a1_world" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
@@ -154,16 +156,16 @@ def test_a_legged_robot_on_a_floating_root(tmp_path: Path) -> None:
         '    <parent link="world"/><child link="trunk"/>\n'
         '    <origin xyz="0.2 0.1 0.35" rpy="0 0 0.5"/>\n'
         "  </joint>\n"
-        f'  <xacro:include filename="{a1.path}"/>\n'
+        f'  <xacro:include filename="$(find a1_description)/{a1.path.name}"/>\n'
         "</robot>\n"
     )
-    robot = load_urdf(scene, a1.package_folders)
+    robot = load_urdf(scene, packages)
     (warning,) = robot.warnings
     # Line 8 of what `xacro a1_in_world.urdf.xacro` prints (after its 4-line banner).
     assert warning.startswith(f"{scene}, line 8 of its xacro output: joint 'world_to_trunk'")
     assert "is floating: it is drawn fixed at its origin" in warning
     assert robot.link_names[:2] == ("world", "trunk") and len(robot.joint_names) == 12
-    model = pin.buildModelFromXML(expand(scene, {}, Packages({}, tmp_path)).text, mimic=True)
+    model = pin.buildModelFromXML(expand(scene, {}, Packages(packages, tmp_path)).text, mimic=True)
     assert model.joints[model.getJointId("world_to_trunk")].shortname() == "JointModelFreeFlyer"
     data = model.createData()
     rng = np.random.default_rng(1)
