@@ -196,6 +196,8 @@ def expand(request: Mapping[str, Any]) -> dict[str, Any]:
             doc = xacro.process_file(str(path), mappings=dict(request["args"]))
         text = str(doc.toprettyxml(indent="  "))
     except Exception as exc:  # xacro evaluates the file's expressions: any error is the file's
+        if isinstance(exc, MemoryError) or isinstance(getattr(exc, "exc", None), MemoryError):
+            raise MemoryError from None  # the worker's memory limit: its exit status says so
         where = (xacro.filestack or [None])[-1] or path
         kind = "malformed XML" if isinstance(exc, xml.parsers.expat.ExpatError) else "xacro"
         inner = getattr(exc, "exc", None)  # xacro wraps what $(find) raised
