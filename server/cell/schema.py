@@ -12,6 +12,8 @@ from typing import Annotated, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Discriminator, Field, Tag
 
+from ..sizes import MAX_JOINTS
+
 Unit = Literal["deg", "rad", "mm", "m"]
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -189,7 +191,7 @@ class Robot(_Strict):
     source: str
     base: Pose = Pose()
     kinematics: Kinematics
-    joints: list[Joint] = Field(min_length=1, max_length=32)
+    joints: list[Joint] = Field(min_length=1, max_length=MAX_JOINTS)
     mesh_dir: str | None = None
     """Folder of ``<link>.glb`` meshes (not for URDF, whose visuals are converted)."""
     command_node: str | None = None

@@ -23,6 +23,7 @@ from lxml import etree
 from server.kinematics.urdf import UrdfChain, UrdfJoint, UrdfMimic, UrdfTree
 
 from ..sandbox import Confinement
+from ..sizes import MAX_DESCRIPTION_MB, MAX_JOINTS
 from . import _xacro, _xml
 from ._paths import Packages, resolve_mesh
 from .model import (
@@ -125,6 +126,12 @@ class _Reader:
         if not self.path.is_file():
             raise UrdfError(f"URDF file {self.path} not found")
         try:
+            size = self.path.stat().st_size
+            if size > MAX_DESCRIPTION_MB * 1024 * 1024:
+                raise UrdfError(
+                    f"URDF file {self.path} is {size / 1e6:.0f} MB; linkview reads at most "
+                    f"{MAX_DESCRIPTION_MB} MB"
+                )
             data = self.path.read_bytes()
         except OSError as exc:
             raise UrdfError(f"URDF file {self.path}: cannot read it ({exc.strerror})") from None
@@ -260,6 +267,11 @@ def load_urdf(
         chain = UrdfChain(tree, tip)
     except ValueError as exc:
         raise UrdfError(reader.locate(str(exc), cleaned)) from None
+    if chain.n_joints > MAX_JOINTS:
+        raise UrdfError(
+            f"{path}: {chain.n_joints} movable joints; linkview follows at most {MAX_JOINTS} "
+            "per robot"
+        )
     ends = _ends(tree)
     visuals = _visuals(robot, reader, cleaned, ends)
     return UrdfRobot(
