@@ -50,6 +50,19 @@ def test_the_corpus_has_what_the_issue_asks() -> None:
     assert any({"7-axis", "mimic"} <= set(r.features) for r in CORPUS)
 
 
+def test_the_corpus_has_machines_past_the_old_cap_of_32_joints() -> None:
+    # Issue 31: humanoids and mobile manipulators were refused for more than 32 joints.
+    large = {
+        r.name: r
+        for r in CORPUS
+        if {"more than 32 joints", "more than 60 joints"} & set(r.features)
+    }
+    counts = {
+        name: len(load_urdf(r.path, r.package_folders).joint_names) for name, r in large.items()
+    }
+    assert sum(n > 32 for n in counts.values()) >= 2 and max(counts.values()) > 60, counts
+
+
 def needs_xacro(robot: Described) -> bool:
     """True for a xacro file, or a URDF that still holds xacro."""
     return is_xacro(robot.path) or uses_xacro(parse(robot.path.read_bytes(), str(robot.path)))
