@@ -55,7 +55,7 @@ from _report import markdown_table, publish  # noqa: E402
 
 from server.sizes import MAX_JOINTS, MAX_LINKS  # noqa: E402
 from server.urdf import link_meshes, load_urdf  # noqa: E402
-from tests.urdf.corpus import CORPUS, Described  # noqa: E402
+from tests.urdf.corpus import CORPUS, Described, tree_urdf  # noqa: E402
 
 BATCH = 100_000
 ARM6 = ROOT / "cells" / "examples" / "arm6" / "arm6_description"
@@ -169,19 +169,10 @@ def corpus_table(repeats: int) -> tuple[str, str]:
     return markdown_table(header, body), summary
 
 
-def generated_urdf(folder: Path, links: int = MAX_LINKS, movable: int = MAX_JOINTS) -> Path:
-    """A binary tree of ``links`` box links, its first ``movable`` joints revolute."""
-    out = ['<robot name="largest">', '<link name="l0"/>']
-    for i in range(1, links):
-        kind = "revolute" if i <= movable else "fixed"
-        out.append(
-            f'<link name="l{i}"><visual><geometry><box size="0.01 0.01 0.01"/></geometry>'
-            f'</visual></link><joint name="j{i}" type="{kind}"><parent link="l{(i - 1) // 2}"/>'
-            f'<child link="l{i}"/><origin xyz="0 0 0.01"/><axis xyz="0 0 1"/>'
-            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
-        )
+def generated_urdf(folder: Path) -> Path:
+    """The largest robot linkview takes: a tree of MAX_LINKS links, MAX_JOINTS of them movable."""
     path = folder / "largest.urdf"
-    path.write_text("\n".join([*out, "</robot>"]))
+    path.write_text(tree_urdf(MAX_LINKS, MAX_JOINTS))
     return path
 
 

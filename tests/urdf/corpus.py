@@ -127,3 +127,19 @@ CORPUS: tuple[Described, ...] = (
               "example-robot-data", "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
               features=("humanoid", "more than 32 joints", "floating base", "stl")),
 )  # fmt: skip
+
+
+def tree_urdf(links: int, movable: int, name: str = "l", chain: bool = False) -> str:
+    """A binary tree (``chain``: a chain) of ``links`` box links; the first ``movable``
+    joints revolute, each link 10 mm above its parent."""
+    out = ['<robot name="big">', f'<link name="{name}0"/>']
+    for i in range(1, links):
+        kind = "revolute" if i <= movable else "fixed"
+        out.append(
+            f'<link name="{name}{i}"><visual><geometry><box size="0.01 0.01 0.01"/>'
+            f'</geometry></visual></link><joint name="j{i}" type="{kind}">'
+            f'<parent link="{name}{i - 1 if chain else (i - 1) // 2}"/><child link="{name}{i}"/>'
+            '<origin xyz="0 0 0.01"/><axis xyz="0 0 1"/>'
+            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        )
+    return "\n".join([*out, "</robot>"])
