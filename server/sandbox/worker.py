@@ -35,6 +35,8 @@ def _limit(limits: dict[str, Any]) -> None:
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
     resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))
     signal.signal(signal.SIGXCPU, lambda *_: os._exit(EXIT_CPU))
+    # The lowest niceness, not SCHED_IDLE: a server that uses every core (overloaded on
+    # purpose, say) would starve an idle-class worker until its wall-clock limit.
     os.nice(NICENESS)
 
 
