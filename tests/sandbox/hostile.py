@@ -7,11 +7,13 @@ the server), as a deployment sets its controller password and viewer token.
 
 from __future__ import annotations
 
+import os
 import secrets
 import subprocess
+import sys
 from pathlib import Path
 
-from tests.test_cli import run_server
+from tests.test_cli import ROOT
 
 ARM = """<?xml version="1.0"?>
 <robot name="arm" xmlns:xacro="http://www.ros.org/wiki/xacro">
@@ -54,6 +56,15 @@ def hostile_cell(folder: Path, attack: str, extra: str = "") -> Path:
     return cell
 
 
-def check(cell: Path, env: dict[str, str]) -> subprocess.CompletedProcess[str]:
+def check(
+    cell: Path, env: dict[str, str], timeout_s: float = 120.0
+) -> subprocess.CompletedProcess[str]:
     """``python -m server check CELL`` with ``env`` added to the environment."""
-    return run_server("check", str(cell), env=env)
+    return subprocess.run(
+        [sys.executable, "-m", "server", "check", str(cell)],
+        cwd=ROOT,
+        env={**os.environ, **env},
+        text=True,
+        capture_output=True,
+        timeout=timeout_s,
+    )

@@ -14,6 +14,7 @@ import asyncio
 import contextlib
 import json
 import os
+import re
 import signal
 import statistics
 import subprocess
@@ -46,11 +47,20 @@ LIMITS = {
     "LINKVIEW_XACRO_WALL_S": "40",
 }
 
+CPU_LIMIT = re.escape("stopped at the limit of 3 s of CPU time (LINKVIEW_XACRO_CPU_S)")
 BOMBS = {
-    "power": (POWER, "Sorry! I don't want to evaluate 9 ** 43046721"),
-    "macro": (MACRO, "stopped at the limit of 3 s of CPU time (LINKVIEW_XACRO_CPU_S)"),
-    "memory": (MEMORY, "stopped at the limit of 300 MB of memory (LINKVIEW_XACRO_MEMORY_MB)"),
+    "power": (POWER, re.escape("Sorry! I don't want to evaluate 9 ** 43046721")),
+    "macro": (MACRO, CPU_LIMIT),
+    "memory": (
+        MEMORY,
+        re.escape("stopped at the limit of 300 MB of memory (LINKVIEW_XACRO_MEMORY_MB)"),
+    ),
 }
+ANY_TIME_LIMIT = CPU_LIMIT + "|" + re.escape("40 s of wall-clock time (LINKVIEW_XACRO_WALL_S)")
+"""What stops the macro bomb in a served cell: its CPU limit or, where the lowest-priority
+worker gets too little CPU for that on a busy machine, its wall-clock limit."""
+CHECK_WALL_S = 300.0
+"""``check``'s wall-clock limit: far enough that the CPU limit is what stops its bombs."""
 
 
 @pytest.mark.parametrize("name", list(BOMBS))
@@ -58,11 +68,13 @@ def test_check_returns_within_the_limit_and_names_it(name: str, tmp_path: Path) 
     bomb, said = BOMBS[name]
     cell = hostile_cell(tmp_path, bomb)
     started = time.monotonic()
-    result = check(cell, {**secret_env(), **LIMITS})
+    env = {**secret_env(), **LIMITS, "LINKVIEW_XACRO_WALL_S": str(CHECK_WALL_S)}
+    result = check(cell, env, timeout_s=CHECK_WALL_S + 60)
     took = time.monotonic() - started
     assert result.returncode == 1 and "Traceback" not in result.stderr, result.stderr
-    assert said in result.stderr and str(cell.parent / "arm.urdf.xacro") in result.stderr
-    assert took < float(LIMITS["LINKVIEW_XACRO_WALL_S"])
+    assert re.search(said, result.stderr) and str(cell.parent / "arm.urdf.xacro") in result.stderr
+    # Within the wall-clock limit, plus the start of Python and linkview's imports.
+    assert took < CHECK_WALL_S + 15
 
 
 def workers_of(pid: int) -> list[int]:
@@ -222,9 +234,9 @@ async def test_a_bomb_saved_into_a_served_cell_goes_unnoticed(tmp_path: Path) ->
             await probe()
             answered += 1
         ended = time.time()
-        limit = "3 s of CPU time (LINKVIEW_XACRO_CPU_S)"
+        limit = ANY_TIME_LIMIT
         deadline = time.monotonic() + 30
-        while limit not in str(cell_error(body := await health(http, base))):
+        while not re.search(limit, str(cell_error(body := await health(http, base)))):
             assert time.monotonic() < deadline, body
             await asyncio.sleep(0.2)
         rates = viewer.rates(started, ended)
