@@ -7,10 +7,13 @@ the server), as a deployment sets its controller password and viewer token.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import secrets
 import subprocess
 import sys
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from pathlib import Path
 
 from tests.test_cli import ROOT
@@ -68,3 +71,31 @@ def check(
         capture_output=True,
         timeout=timeout_s,
     )
+
+
+@asynccontextmanager
+async def serving(
+    cell: Path, port: int, log: Path, env: dict[str, str]
+) -> AsyncIterator[subprocess.Popen[bytes]]:
+    """``python -m server --cell CELL --port PORT`` (``env`` added, output to ``log``).
+
+    Stopped at the end with SIGTERM (killed if still running 15 s later), unless
+    the block stopped it.
+    """
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
+            cwd=ROOT,
+            env={**os.environ, "PYTHONPATH": str(ROOT), **env},
+            stdout=out,
+            stderr=subprocess.STDOUT,
+        )
+    try:
+        yield proc
+    finally:
+        proc.terminate()
+        try:
+            await asyncio.to_thread(proc.wait, 15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            await asyncio.to_thread(proc.wait)

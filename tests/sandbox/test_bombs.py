@@ -13,15 +13,10 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import os
 import re
 import signal
 import statistics
-import subprocess
-import sys
 import time
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from pathlib import Path
 
 import aiohttp
@@ -30,7 +25,7 @@ from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
 
 from tests.conftest import free_port
-from tests.sandbox.hostile import ARM, check, hostile_cell, secret_env
+from tests.sandbox.hostile import ARM, check, hostile_cell, secret_env, serving
 
 ROOT = Path(__file__).resolve().parents[2]
 POWER = '<link name="n${len(str(9**9**8))}"/>'
@@ -94,30 +89,13 @@ def workers_of(pid: int) -> list[int]:
     return found
 
 
-@asynccontextmanager
-async def serving(cell: Path, port: int, log: Path) -> AsyncIterator[subprocess.Popen[bytes]]:
-    """``python -m server --cell CELL`` with a controller password and the test's limits set."""
-    env = {
-        **os.environ,
+def server_env(log: Path) -> dict[str, str]:
+    """A controller password and the test's limits, as a deployment sets them."""
+    return {
         **LIMITS,
         "LINKVIEW_CTRLX_PASSWORD": secret_env()["LINKVIEW_CTRLX_PASSWORD"],
         "LINKVIEW_CACHE_DIR": str(log.parent / "cache"),
-        "PYTHONPATH": str(ROOT),
     }
-    with open(log, "wb") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
-            cwd=ROOT,
-            env=env,
-            stdout=out,
-            stderr=subprocess.STDOUT,
-        )
-    try:
-        yield proc
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-        await asyncio.to_thread(proc.wait)
 
 
 class Viewer:
@@ -176,7 +154,8 @@ async def test_a_bomb_saved_into_a_served_cell_goes_unnoticed(tmp_path: Path) ->
     cell = hostile_cell(tmp_path / "cell", "")
     port = free_port()
     base = f"http://127.0.0.1:{port}"
-    async with serving(cell, port, tmp_path / "log") as proc, aiohttp.ClientSession() as http:
+    log = tmp_path / "log"
+    async with serving(cell, port, log, server_env(log)) as proc, aiohttp.ClientSession() as http:
 
         async def up() -> bool:
             try:
