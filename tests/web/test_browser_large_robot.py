@@ -97,5 +97,8 @@ def test_a_robot_of_101_joints_streams_and_its_page_shows_and_plots_them(
             " && window.linkview.plots.layout.every(p => Number.isFinite(p.data[0]))",
             timeout=TIMEOUT_MS,
         )
+        page.get_by_label("plot only the joints whose names hold this").fill("arm_left")
+        titles = page.locator("#plots .plot-title").all_inner_texts()
+        assert [t.rsplit(" (", 1)[0] for t in titles] == wanted
         watched.assert_clean()
         page.close()
