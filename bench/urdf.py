@@ -12,7 +12,12 @@ Rows:
 * the same for every robot of the published corpus (``tests/urdf/corpus.py``:
   descriptions from pybullet, airo-models and rtb-data, xacro included), one
   row each: links, visuals, cold and cached load, in process CPU seconds (what
-  the work costs, whatever else runs on the machine) and wall seconds.
+  the work costs, whatever else runs on the machine) and wall seconds (a xacro
+  file is expanded by a worker process, whose CPU only the wall seconds hold);
+* the largest robots: the corpus's largest (PAL's TIAGo++, 101 movable joints)
+  and the largest linkview takes (2 048 links, 256 movable joints, generated):
+  load time and the per-frame forward kinematics (``link_poses`` of one
+  configuration, every link).
 
 Each figure is the median of several repeats; roboticstoolbox and our batch
 alternate within one process, so both see the same machine load.
@@ -24,6 +29,7 @@ Usage: ``python bench/urdf.py [--repeats 7] [--quick]``; writes docs/benchmarks.
 from __future__ import annotations
 
 import argparse
+import functools
 import io
 import json
 import os
@@ -47,8 +53,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(ROOT))
 from _report import markdown_table, publish  # noqa: E402
 
+from server.sizes import MAX_JOINTS, MAX_LINKS  # noqa: E402
 from server.urdf import link_meshes, load_urdf  # noqa: E402
-from tests.urdf.corpus import CORPUS, Described  # noqa: E402
+from tests.urdf.corpus import CORPUS, Described, tree_urdf  # noqa: E402
 
 BATCH = 100_000
 ARM6 = ROOT / "cells" / "examples" / "arm6" / "arm6_description"
@@ -162,6 +169,38 @@ def corpus_table(repeats: int) -> tuple[str, str]:
     return markdown_table(header, body), summary
 
 
+def generated_urdf(folder: Path) -> Path:
+    """The largest robot linkview takes: a tree of MAX_LINKS links, MAX_JOINTS of them movable."""
+    path = folder / "largest.urdf"
+    path.write_text(tree_urdf(MAX_LINKS, MAX_JOINTS))
+    return path
+
+
+def large_rows(repeats: int) -> list[list[str]]:
+    """Load time and per-frame FK of the corpus's largest robot and of the largest allowed."""
+    largest = next(robot for robot in CORPUS if robot.name == "tiago_dual")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for title, path, packages in (
+            (largest.title, largest.path, largest.package_folders),
+            (f"generated, {MAX_LINKS} links", generated_urdf(Path(tmp)), {}),
+        ):
+            load = functools.partial(load_urdf, path, packages)
+            loads = [seconds(load) for _ in range(repeats)]
+            chain = load().chain
+            frame = functools.partial(
+                chain.link_poses, np.random.default_rng(0).uniform(-0.5, 0.5, chain.n_joints)
+            )
+            per_frame_us = 1e6 * statistics.median(seconds(frame, 200) for _ in range(repeats))
+            rows.append([
+                f"{title}: {chain.n_joints} movable joints, {len(chain.link_names)} links",
+                f"{statistics.median(loads):.2f} s",
+                f"{per_frame_us:.0f} us",
+                f"{1e3 * per_frame_us / 1e6 * 50:.1f} ms of each second at 50 Hz",
+            ])  # fmt: skip
+    return rows
+
+
 def load_all(cache: Path) -> None:
     for path, packages in ROBOTS:
         link_meshes(load_urdf(path, packages), cache)
@@ -222,6 +261,7 @@ def main() -> None:
     repeats = 1 if options.quick else options.repeats
     load_before = os.getloadavg()[0]
     corpus, corpus_summary = corpus_table(1 if options.quick else 3)
+    large = large_rows(1 if options.quick else 3)
     with tempfile.TemporaryDirectory() as tmp:
         first_cold = seconds(lambda: load_all(Path(tmp) / "first"))  # imports trimesh's readers
         colds, warms = [], []
@@ -315,11 +355,17 @@ def main() -> None:
         f"{1 if options.quick else 3} repeats. CPU seconds are this process's; wall seconds "
         "add whatever else the machine was running."
     )
+    large_table = markdown_table(["robot", "load (wall)", "FK per frame", "at 50 Hz"], large)
+    large_notes = (
+        "`load_urdf` (no meshes) and `link_poses` of one configuration, every link: what the "
+        "acquisition computes for each sample of the robot; median of "
+        f"{1 if options.quick else 3} repeats."
+    )
     publish(
         "bench/urdf.py",
         "URDF robots",
         f"{table}\n\n{notes}\n\n### Published robots\n\n{corpus_notes}\n\n{corpus}\n\n"
-        f"{corpus_summary}\n",
+        f"{corpus_summary}\n\n### The largest robots\n\n{large_notes}\n\n{large_table}\n",
     )
 
 

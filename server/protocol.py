@@ -175,10 +175,12 @@ MESSAGE_TYPES: dict[str, type[_Message]] = {
 # -- protocol 2: one binary message per source and sample (little-endian, no padding) ----------
 
 FRAMES_KIND = 1
+FRAMES_VERSION = 3
+"""3: joint_count is a u16 (version 2's u8 held at most 255 joints; humanoids have more)."""
 FRAMES_HEADER = struct.Struct("<BBHIdd")
-"""kind = 1, version = 2, robot_count, seq, t_source, t_sent (unix s): 24 bytes."""
-ROBOT_HEADER = struct.Struct("<HBBHH")
-"""robot_index (hello order), flags, joint_count, link_count, error_bytes: 8 bytes.
+"""kind = 1, version = 3, robot_count, seq, t_source, t_sent (unix s): 24 bytes."""
+ROBOT_HEADER = struct.Struct("<HBxHHH")
+"""robot_index (hello order), flags, a zero byte, joint_count, link_count, error_bytes: 10 bytes.
 
 Then ``f32 joints[joint_count]``, ``f32 links[link_count * 7]``, ``f32 tcp[7]``
 and ``error_bytes`` of UTF-8 error text. Where ok is 0, link_count is 0. With
@@ -232,7 +234,7 @@ def decode_frames(data: bytes) -> Frames2:
     if len(data) < FRAMES_HEADER.size:
         raise ValueError(f"{len(data)} bytes is shorter than the frames header")
     kind, version, count, seq, t_source, t_sent = FRAMES_HEADER.unpack_from(data, 0)
-    if (kind, version) != (FRAMES_KIND, 2):
+    if (kind, version) != (FRAMES_KIND, FRAMES_VERSION):
         raise ValueError(f"not a protocol-2 frames message (kind {kind}, version {version})")
     at, robots = FRAMES_HEADER.size, []
     for _ in range(count):

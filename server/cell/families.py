@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..kinematics import DHChain, LBRiiwa, Type12, WorldModel, matrix_from_rpy
 from ..kinematics._pose_vector import pose_vector_from_matrix
+from ..sandbox import Confinement, Limits
 from . import schema
 from .axis_group import AxisGroupKinematics
 from .robot import DEG, MM, Array, Family, Kinematics
@@ -28,10 +29,16 @@ class SpecError(ValueError):
 
 @dataclass(frozen=True)
 class Where:
-    """Where a cell's files are: relative paths start at the cell file; meshes are cached."""
+    """Where a cell's files are: relative paths start at the cell file; meshes are cached.
+
+    ``env`` is where a description's ``xacro_env`` variables are read from;
+    ``limits`` bound the worker that expands it.
+    """
 
     cell_dir: Path
     cache_dir: Path
+    env: Mapping[str, str] = field(default_factory=dict, hash=False, compare=False)
+    limits: Limits = Limits()
 
     def resolve(self, relative: str) -> Path:
         """A path from the cell file, relative to its folder."""
@@ -198,8 +205,11 @@ def _urdf(spec: schema.Urdf, where: Where) -> Built:
     from ..urdf import UrdfError, link_meshes, load_urdf
 
     packages = {name: where.resolve(folder) for name, folder in spec.packages.items()}
+    # Only the variables the cell names, so no LINKVIEW_* setting or password is seen.
+    env = {name: where.env[name] for name in spec.xacro_env if name in where.env}
+    confinement = Confinement((where.cell_dir,), env, where.limits)
     try:
-        robot = load_urdf(where.resolve(spec.file), packages, spec.tip, spec.args)
+        robot = load_urdf(where.resolve(spec.file), packages, spec.tip, spec.args, confinement)
         glbs = link_meshes(robot, where.cache_dir)
     except UrdfError as exc:
         raise SpecError("file", str(exc)) from None

@@ -22,6 +22,7 @@ from ..kinematics import pose7_from_matrix
 from ..mqtt.nodes import check_mqtt_url, parse_node
 from ..protocol import RobotInfo
 from ..rtde.wire import check_rtde_url, parse_key, register_key
+from ..sandbox import Limits
 from ..text import plural
 from . import schema
 from ._validate import Validated, validate
@@ -145,7 +146,8 @@ def load_cell(
 ) -> Cell:
     """The cell described by the TOML file at ``path``; raises CellError.
 
-    ``env`` supplies passwords (default: the environment); ``cache_dir`` keeps
+    ``env`` supplies passwords, the variables robots name in ``xacro_env`` and
+    the ``LINKVIEW_XACRO_*`` limits (default: the environment); ``cache_dir`` keeps
     URDF meshes converted to GLB (default: ``default_cache_dir()``). ``text``:
     the file's contents as they would be (an edit not yet saved), read instead
     of the file; relative paths still start at ``path``'s folder. ``stand_ins``
@@ -164,7 +166,11 @@ def load_cell(
         raise CellError(path, [("(file)", f"cannot read it: {exc}")]) from None
     except tomllib.TOMLDecodeError as exc:
         raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
-    where = Where(path.resolve().parent, cache_dir or default_cache_dir())
+    try:
+        limits = Limits.from_env(env)
+    except ValueError as exc:
+        raise CellError(path, [("(environment)", str(exc))]) from None
+    where = Where(path.resolve().parent, cache_dir or default_cache_dir(), env, limits)
     if stand_ins is None:
         stand_ins = raw.get("allow_edits") is True
     return _Builder(path, validate(raw), env, where, stand_ins).cell()
@@ -288,6 +294,8 @@ class _Builder:
 
     def _robot(self, index: int, spec: schema.Robot) -> Robot | None:
         key = self._key("robot", index)
+        if not self._no_secrets(key, spec.kinematics):
+            return None
         missing = missing_description(spec, self.where) if self.stand_ins else None
         try:
             if missing is not None:
@@ -321,6 +329,22 @@ class _Builder:
             demo_targets=targets,
             warnings=built.warnings + refused,
         )
+
+    def _no_secrets(self, key: str, kinematics: schema.Kinematics) -> bool:
+        """False (reported) if a description would see a source's password variable."""
+        if not isinstance(kinematics, schema.Urdf):
+            return True
+        secrets = {s.password_env for s in self.valid.sources.values() if s.password_env}
+        for k, name in enumerate(kinematics.xacro_env):
+            if name in secrets:
+                self._report(
+                    (
+                        f"{key}.kinematics.xacro_env[{k}]",
+                        f"{name} holds a source's password: a description never sees it",
+                    )
+                )
+                return False
+        return True
 
     def _joints(self, key: str, spec: schema.Robot, built: Built) -> tuple[Joint, ...] | None:
         n = len(built.joint_names)

@@ -10,13 +10,29 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
+from pydantic import AfterValidator, BaseModel, ConfigDict, Discriminator, Field, Tag
+
+from ..sizes import MAX_JOINTS
 
 Unit = Literal["deg", "rad", "mm", "m"]
 Name = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Range = Annotated[list[float], Field(min_length=2, max_length=2)]
 Finite = Annotated[float, Field(allow_inf_nan=False)]
+RESERVED_ENV_PREFIX = "LINKVIEW_"
+
+
+def _not_linkview(name: str) -> str:
+    if name.upper().startswith(RESERVED_ENV_PREFIX):
+        raise ValueError(f"{name} is linkview's own setting, never a description's")
+    return name
+
+
+EnvName = Annotated[
+    str,
+    Field(min_length=1, max_length=128, pattern=r"^[A-Za-z_][A-Za-z0-9_]*$"),
+    AfterValidator(_not_linkview),
+]
 
 
 class _Strict(BaseModel):
@@ -193,6 +209,8 @@ class Urdf(_Strict):
     paths: relative to the cell file); packages not given are searched for above the file."""
     args: dict[str, str] = {}
     """xacro arguments, ``$(arg name)``."""
+    xacro_env: list[EnvName] = Field(default=[], max_length=64)
+    """Environment variables ``$(env NAME)``/``$(optenv NAME)`` may read; no other is seen."""
     tip: str | None = None
     """The TCP link; default: the last link of the longest chain."""
 
@@ -208,7 +226,7 @@ class Robot(_Strict):
     source: str
     base: Pose = Pose()
     kinematics: Kinematics
-    joints: list[Joint] = Field(default_factory=list, max_length=32)
+    joints: list[Joint] = Field(default_factory=list, max_length=MAX_JOINTS)
     """One per joint of the kinematics; an RTDE source's robot may leave it out (``actual_q``)."""
     mesh_dir: str | None = None
     """Folder of ``<link>.glb`` meshes (not for URDF, whose visuals are converted)."""

@@ -10,6 +10,7 @@ from pathlib import Path
 from watchfiles import Change, awatch
 
 from ..cell import Cell, CellError
+from ..sandbox import stop_all
 from . import Runtime
 
 log = logging.getLogger(__name__)
@@ -35,7 +36,13 @@ async def follow_cell_file(
     ):
         try:
             # Parsing a URDF or converting meshes may take a while: not on the event loop.
+            # A xacro file is expanded by a worker process the thread waits for.
             cell = await asyncio.to_thread(load)
+        except asyncio.CancelledError:
+            # Stopping: the thread would wait for a running worker (up to its limits),
+            # and the loop's executor waits for the thread before the process exits.
+            stop_all()
+            raise
         except CellError as exc:
             log.error(
                 "cell file changed but cannot be used; still running the previous one:\n%s", exc

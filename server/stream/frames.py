@@ -10,7 +10,14 @@ import orjson
 
 from ..cell import Robot
 from ..kinematics import pose7_from_matrix
-from ..protocol import FLAG_OK, FLAG_SETPOINT, FRAMES_HEADER, FRAMES_KIND, ROBOT_HEADER
+from ..protocol import (
+    FLAG_OK,
+    FLAG_SETPOINT,
+    FRAMES_HEADER,
+    FRAMES_KIND,
+    FRAMES_VERSION,
+    ROBOT_HEADER,
+)
 from .types import Array, BoolArray, RobotSample
 
 # orjson rather than json: it serialises numpy arrays directly and is ~10x
@@ -157,7 +164,8 @@ def encode_binary(
     frames: list[tuple[int, RobotFrame]], seq: int, t_source: float, t_sent: float
 ) -> bytes:
     """The protocol-2 frames message of one source's sample: ``(hello index, frame)`` pairs."""
-    parts = [FRAMES_HEADER.pack(FRAMES_KIND, 2, len(frames), seq & 0xFFFFFFFF, t_source, t_sent)]
+    header = (FRAMES_KIND, FRAMES_VERSION, len(frames), seq & 0xFFFFFFFF, t_source, t_sent)
+    parts = [FRAMES_HEADER.pack(*header)]
     for index, frame in frames:
         joints = frame.joints if frame.joints is not None else _NO_FLOATS
         error = b"" if frame.error is None else _cut(frame.error.encode("utf-8"))

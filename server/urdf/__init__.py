@@ -1,9 +1,9 @@
 """URDF robots: files read into ``UrdfRobot`` (kinematics + visuals) and link meshes as GLB.
 
-All file I/O for URDF robots lives here: ``loader`` reads a file (``_xacro`` expands
-xacro, ``_xml`` cleans and checks the XML, ``_paths`` finds packages and meshes),
-``meshes`` converts each link's visuals to one GLB. The kinematics are
-``server.kinematics.urdf``.
+All file I/O for URDF robots lives here: ``loader`` reads a file (``_xacro`` has
+xacro expanded by ``server.sandbox``'s worker process, ``_xml`` cleans and checks
+the XML, ``_paths`` finds meshes), ``meshes`` converts each link's visuals to one
+GLB. The kinematics are ``server.kinematics.urdf``.
 """
 
 from .loader import load_urdf

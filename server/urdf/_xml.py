@@ -19,6 +19,7 @@ from typing import Any
 
 from lxml import etree
 
+from ..sizes import MAX_LINKS, MAX_NAME_CHARS
 from .model import UrdfError
 
 KEPT = ("link", "joint", "material")
@@ -191,9 +192,21 @@ def clean(root: Any, where: Where) -> Cleaned:
     for child in list(root):
         if child.tag not in KEPT:
             root.remove(child)
+    links = 0
     for el in root:
         if el.tag in ("link", "joint") and not el.get("name"):
             raise UrdfError(f"{where(el)}: <{el.tag}> without a name")
+        if el.tag in ("link", "joint") and len(el.get("name")) > MAX_NAME_CHARS:
+            raise UrdfError(
+                f"{where(el)}: <{el.tag}> name of {len(el.get('name'))} characters; "
+                f"linkview takes at most {MAX_NAME_CHARS}"
+            )
+        links += el.tag == "link"
+        if links > MAX_LINKS:
+            raise UrdfError(
+                f"{where(el)}: more than {MAX_LINKS} links; linkview draws at most "
+                f"{MAX_LINKS} per robot"
+            )
         if el.tag in ("link", "joint"):
             out.elements.setdefault(f"{el.tag} {el.get('name')!r}", el)
     if root.find("link") is None:

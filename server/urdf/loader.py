@@ -22,6 +22,8 @@ from lxml import etree
 
 from server.kinematics.urdf import UrdfChain, UrdfJoint, UrdfMimic, UrdfTree
 
+from ..sandbox import Confinement
+from ..sizes import MAX_DESCRIPTION_MB, MAX_JOINTS
 from . import _xacro, _xml
 from ._paths import Packages, resolve_mesh
 from .model import (
@@ -95,10 +97,17 @@ def _colours(robot: Any) -> dict[str, Rgba]:
 class _Reader:
     """One description file being read: where it is, its packages, what it warned about."""
 
-    def __init__(self, path: Path, packages: Packages, args: Mapping[str, str]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        packages: Packages,
+        args: Mapping[str, str],
+        confinement: Confinement | None = None,
+    ) -> None:
         self.path = path
         self.packages = packages
         self.args = args
+        self.confinement = confinement
         self.expanded = False
         self.folders = [path.parent]
         """Where relative mesh paths are looked for: the file's folder, then its includes'."""
@@ -117,6 +126,12 @@ class _Reader:
         if not self.path.is_file():
             raise UrdfError(f"URDF file {self.path} not found")
         try:
+            size = self.path.stat().st_size
+            if size > MAX_DESCRIPTION_MB * 1024 * 1024:
+                raise UrdfError(
+                    f"URDF file {self.path} is {size / 1e6:.0f} MB; linkview reads at most "
+                    f"{MAX_DESCRIPTION_MB} MB"
+                )
             data = self.path.read_bytes()
         except OSError as exc:
             raise UrdfError(f"URDF file {self.path}: cannot read it ({exc.strerror})") from None
@@ -124,7 +139,7 @@ class _Reader:
         return self._expand() if _xml.uses_xacro(root) else root
 
     def _expand(self) -> Any:
-        expanded = _xacro.expand(self.path, self.args, self.packages)
+        expanded = _xacro.expand(self.path, self.args, self.packages, self.confinement)
         self.warnings += expanded.warnings
         self.expanded = True
         self.folders += [f.parent for f in expanded.included if f.parent not in self.folders]
@@ -211,19 +226,22 @@ def load_urdf(
     packages: Mapping[str, str | Path] | None = None,
     tip: str | None = None,
     args: Mapping[str, str] | None = None,
+    confinement: Confinement | None = None,
 ) -> UrdfRobot:
     """Load the URDF or xacro file at ``path``: kinematics, joints, limits, each link's visuals.
 
     ``packages`` maps ROS package names to folders (used as given: resolve
     relative ones first); packages not given are searched for above the file
-    (see ``_paths``). ``args`` are xacro arguments. ``tip`` is the link
+    (see ``_paths``). ``args`` are xacro arguments, expanded in a worker within
+    ``confinement`` (default: reads in the file's folder and its packages, no
+    environment variables, the default limits). ``tip`` is the link
     ``forward``/``inverse`` work on (default: see ``UrdfChain``). Raises
     UrdfError, whose message says what is wrong and where, for any file that
     cannot be used; what can be shown in part is in ``UrdfRobot.warnings``.
     """
     path = Path(path)
     folders = {name: Path(folder) for name, folder in (packages or {}).items()}
-    reader = _Reader(path, Packages(folders, path.parent), args or {})
+    reader = _Reader(path, Packages(folders, path.parent), args or {}, confinement)
     cleaned = _xml.clean(reader.root(), reader.where)
     reader.warnings += cleaned.warnings
     # yourdfpy logs and then retries malformed files leniently; _xml has
@@ -249,6 +267,11 @@ def load_urdf(
         chain = UrdfChain(tree, tip)
     except ValueError as exc:
         raise UrdfError(reader.locate(str(exc), cleaned)) from None
+    if chain.n_joints > MAX_JOINTS:
+        raise UrdfError(
+            f"{path}: {chain.n_joints} movable joints; linkview follows at most {MAX_JOINTS} "
+            "per robot"
+        )
     ends = _ends(tree)
     visuals = _visuals(robot, reader, cleaned, ends)
     return UrdfRobot(

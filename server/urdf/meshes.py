@@ -49,6 +49,11 @@ FORMAT = 2  # bump when the conversion below changes its output
 SHARP = np.radians(35.0)
 SECTIONS = 32  # segments around cylinders
 STAND_IN_RADIUS = 0.02  # m: the ball of a stand-in; its sticks are 0.6 of it
+MAX_MESH_MB = 64
+"""A mesh file larger than this is not read (a stand-in, with a warning naming the limit):
+the conversion's time and memory grow with it (a 48 MB OBJ took 30 s and 2 GB)."""
+MAX_LINK_VERTICES = 500_000
+"""Vertices of one link's GLB after conversion: every page loads it (about 36 bytes each)."""
 _GREY = (0.6, 0.6, 0.62, 1.0)
 _OBJ_REFS = re.compile(rb"^\s*(?:mtllib|map_\w+)\s+(.+?)\s*$", re.M)
 _DAE_REFS = re.compile(rb"<init_from>\s*([^<]+?)\s*</init_from>")
@@ -56,13 +61,27 @@ _DAE_REFS = re.compile(rb"<init_from>\s*([^<]+?)\s*</init_from>")
 
 def _digest(path: Path) -> str:
     try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
+        with path.open("rb") as file:  # streamed: a mesh is never held whole for its hash
+            return hashlib.file_digest(file, "sha256").hexdigest()
     except OSError as exc:  # converted to a stand-in; the key still names the file's state
         return f"unreadable: {exc.strerror}"
 
 
+def _too_large(path: Path) -> str | None:
+    """Why ``path`` is not read (over ``MAX_MESH_MB``), or None."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return None
+    if size <= MAX_MESH_MB * 1024 * 1024:
+        return None
+    return f"it is {size / 1e6:.0f} MB, over linkview's limit of {MAX_MESH_MB} MB for a mesh file"
+
+
 def _dependencies(path: Path) -> list[Path]:
     """Files a mesh names that change its looks: OBJ material libraries and textures, DAE images."""
+    if _too_large(path):
+        return []  # never read: drawn as a stand-in
     try:
         data = path.read_bytes()
     except OSError:
@@ -211,6 +230,9 @@ def _load_scene(path: Path) -> Any:
 
 
 def _mesh_file(visual: Visual, geometry: MeshGeometry) -> list[Any]:
+    too_large = _too_large(geometry.path)
+    if too_large:
+        raise ValueError(too_large)
     scene = _load_scene(geometry.path)
     unit = _collada_unit(geometry.path) if geometry.path.suffix.lower() == ".dae" else 1.0
     scale = np.diag([*(unit * s for s in geometry.scale), 1.0])
@@ -275,9 +297,16 @@ def convert_link(
     scene = tm.Scene()
     warnings = []
     k = 0
+    vertices = 0
     for visual in visuals:
         try:
             meshes = _meshes(visual)
+            count = sum(len(mesh.vertices) for mesh in meshes)
+            if vertices + count > MAX_LINK_VERTICES:
+                raise ValueError(
+                    f"the link's meshes have more than {MAX_LINK_VERTICES} vertices after "
+                    "conversion, linkview's limit per link"
+                )
         except Exception as exc:  # trimesh and pycollada raise many kinds on a broken file
             if not isinstance(visual.geometry, MeshGeometry):
                 raise
@@ -288,6 +317,7 @@ def convert_link(
             )
             fallback = stand_in or Visual(np.eye(4), StandInGeometry(), None)
             meshes = _meshes(Visual(fallback.origin, fallback.geometry, visual.rgba))
+        vertices += sum(len(mesh.vertices) for mesh in meshes)
         for mesh in meshes:
             scene.add_geometry(mesh, node_name=f"{link}_{k}", geom_name=f"{link}_{k}")
             k += 1

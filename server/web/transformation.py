@@ -25,12 +25,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..cell import Robot, transformation
 from ..runtime import MoveError
+from ..sizes import MAX_JOINTS
 from .routes import runtime_of
 
 router = APIRouter(prefix="/api/robots")
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
-JointRow = Annotated[list[Finite], Field(min_length=1, max_length=32)]
+JointRow = Annotated[list[Finite], Field(min_length=1, max_length=MAX_JOINTS)]
 MAX_ROWS = 10_000
 """Rows per /fk call: bounds the work one request can ask of the server."""
 MAX_LINK_ROWS = 64

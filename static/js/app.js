@@ -50,7 +50,7 @@ class App {
 		this.mapping = new MappingTables( root, this.commission.mapping.decorate );
 		this.following = new Following( root, this.stage.world );
 		this.clock = new ServerClock();
-		this.plots = new JointPlots( root.getElementById( 'plots' ), root.getElementById( 'plot-velocity' ) );
+		this.plots = new JointPlots( root.getElementById( 'plots' ), root.getElementById( 'plot-velocity' ), root.getElementById( 'plot-filter' ) );
 		this.sim = new SimPanel( root, this.stage );
 		this.clearance = new ClearanceWarning( root, this.stage, this.robots );
 		this.panels = new Panels( root, ( left, right, bottom ) => {

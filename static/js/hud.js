@@ -4,6 +4,37 @@ import { NEAR_LIMIT } from './plots.js';
 import { rpyFromQuaternion } from './rpy.js';
 import { RAD_TO_DEG, clockTime, displayScale, fixed, formatJoint } from './units.js';
 
+const MANY_JOINTS = 12; // more joints than this: a list that folds away and can be searched
+const SHORT_NAME = 6; // characters: longer joint names get a row of their own width
+
+/**
+ * A long joint list (a humanoid, a dual-arm mobile manipulator) folded into a
+ * `<details>` with a search field: typing part of a name shows only the joints
+ * whose names hold it. Returns what goes into the card.
+ */
+function foldedJoints( robot, joints, rows ) {
+
+	const details = element( 'details', 'joint-list' );
+	const summary = element( 'summary', null, `${robot.joints.length} joints` );
+	const search = element( 'input', 'joint-search' );
+	search.type = 'search';
+	search.placeholder = 'filter joints';
+	search.setAttribute( 'aria-label', `filter the joints of ${robot.name}` );
+	search.addEventListener( 'input', () => {
+
+		const query = search.value.trim().toLowerCase();
+		robot.joints.forEach( ( joint, k ) => {
+
+			rows[ k ].row.hidden = query !== '' && ! joint.name.toLowerCase().includes( query );
+
+		} );
+
+	} );
+	details.append( summary, search, joints );
+	return details;
+
+}
+
 const SERVER_TEXT = {
 	connecting: 'server: connecting',
 	connected: 'server: connected',
@@ -129,15 +160,19 @@ class Hud {
 					bar.title = 'no limits';
 
 				}
-				row.append( element( 'span', 'name', joint.name ), bar, value );
+				const name = element( 'span', 'name', joint.name );
+				name.title = joint.name;
+				row.append( name, bar, value );
 				joints.append( row );
-				return { value, bar, mark };
+				return { row, value, bar, mark };
 
 			} );
+			if ( robot.joints.some( ( joint ) => joint.name.length > SHORT_NAME ) ) joints.classList.add( 'long-names' );
+			const many = robot.joints.length > MANY_JOINTS;
 			const state = element( 'div', 'robot-state', 'waiting for the first frame' );
 			const error = element( 'div', 'robot-error' );
 			error.hidden = true;
-			card.append( title, controls, tcp, joints, state, error );
+			card.append( title, controls, tcp, many ? foldedJoints( robot, joints, rows ) : joints, state, error );
 			if ( robot.warnings?.length ) card.append( warningList( robot.warnings ) );
 			this.robotsEl.append( card );
 			const before = old.get( robot.name );

@@ -6,6 +6,7 @@ const CAPACITY = 600; // samples per robot: 10 s at up to 55 samples/s
 const MIN_SPACING_MS = 18; // faster sources are thinned: a 300 px plot shows no more
 const NEAR_LIMIT = 0.05; // share of the range that counts as "near a limit"
 const PLOT_HEIGHT = 66; // px of drawing area per joint (axes and padding come on top)
+const MANY_PLOTS = 12; // more joints than this: the plots can be filtered by joint name
 const MIN_SPAN = 2; // a still joint gets +-1 deg (or mm) of range, not a flat line at a tick
 const REACH = 0.5; // a limit within this share of the data's span is brought into view
 const ENLARGED_MIN = 4 * PLOT_HEIGHT; // an enlarged plot is at least this tall (drawing area, px)
@@ -186,9 +187,18 @@ function differentiate( xs, ys, vs ) {
  */
 class JointPlots {
 
-	constructor( container, velocityToggle = null ) {
+	constructor( container, velocityToggle = null, filterInput = null ) {
 
 		this.container = container;
+		// Many joints (a humanoid): a search field picks the plots by joint name.
+		this.filterInput = filterInput;
+		this.filter = '';
+		filterInput?.addEventListener( 'input', () => {
+
+			this.filter = filterInput.value.trim().toLowerCase();
+			this.show( this.history, this.color );
+
+		} );
 		this.velocity = velocityToggle ? velocityToggle.checked : false; // velocity traces shown
 		this.enlarged = null; // the joint whose chart fills the panel, or null: all of them
 		velocityToggle?.addEventListener( 'change', () => {
@@ -221,7 +231,11 @@ class JointPlots {
 			near: 'rgba(217, 138, 0, 0.16)',
 		};
 		const width = Math.max( 160, this.container.clientWidth || 280 );
-		const shown = this.enlarged === null ? history.joints.map( ( _, j ) => j ) : [ this.enlarged ];
+		if ( this.filterInput ) this.filterInput.hidden = history.joints.length <= MANY_PLOTS;
+		const wanted = ( joint ) => this.filter === '' || joint.name.toLowerCase().includes( this.filter );
+		const shown = this.enlarged === null
+			? history.joints.flatMap( ( joint, j ) => ( wanted( joint ) ? [ j ] : [] ) )
+			: [ this.enlarged ];
 		const height = this.enlarged === null ? PLOT_HEIGHT : this._enlargedHeight();
 		for ( const j of shown ) {
 

@@ -4,9 +4,9 @@
 // node in tests/web/test_protocol2_js.py.
 
 const FRAMES_KIND = 1;
-const FRAMES_VERSION = 2;
+const FRAMES_VERSION = 3; // 3: joint_count is a u16 (a humanoid has more than 255 joints' room)
 const FRAMES_HEADER_BYTES = 24; // u8 kind, u8 version, u16 robot_count, u32 seq, f64 t_source, f64 t_sent
-const ROBOT_HEADER_BYTES = 8; // u16 robot_index, u8 flags, u8 joint_count, u16 link_count, u16 error_bytes
+const ROBOT_HEADER_BYTES = 10; // u16 robot_index, u8 flags, u8 zero, u16 joint_count, u16 link_count, u16 error_bytes
 const POSE = 7; // x, y, z, qx, qy, qz, qw
 const FLAG_OK = 1; // the robot has poses
 const FLAG_SETPOINT = 2; // its setpoint pose follows the error text
@@ -67,9 +67,9 @@ function decodeFrames( data ) {
 		if ( at + ROBOT_HEADER_BYTES > size ) throw new Error( `robot ${r} of ${count}: header cut off` );
 		const index = view.getUint16( at, true );
 		const flags = view.getUint8( at + 2 );
-		const jointCount = view.getUint8( at + 3 );
-		const linkCount = view.getUint16( at + 4, true );
-		const errorBytes = view.getUint16( at + 6, true );
+		const jointCount = view.getUint16( at + 4, true );
+		const linkCount = view.getUint16( at + 6, true );
+		const errorBytes = view.getUint16( at + 8, true );
 		at += ROBOT_HEADER_BYTES;
 		const floatCount = jointCount + POSE * linkCount + POSE;
 		if ( at + 4 * floatCount + errorBytes > size ) throw new Error( `robot ${r} of ${count}: body cut off` );

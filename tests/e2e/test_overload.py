@@ -11,10 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import json
-import os
 import statistics
-import subprocess
-import sys
 from collections.abc import AsyncIterator
 from contextlib import AsyncExitStack, asynccontextmanager
 from pathlib import Path
@@ -24,6 +21,7 @@ import aiohttp
 from websockets.asyncio.client import connect
 
 from tests.conftest import free_port, running_mock
+from tests.sandbox.hostile import serving
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = 16
@@ -53,29 +51,9 @@ def cell_text(urls: list[str], period_ms: float | None = None) -> str:
 @asynccontextmanager
 async def server_process(cell: Path, port: int, log: Path) -> AsyncIterator[str]:
     """``python -m server`` for ``cell``, overloaded on purpose; its base URL."""
-    env = {
-        **os.environ,
-        "PYTHONPATH": str(ROOT),
-        PASSWORD_ENV: "boschrexroth",
-        "LINKVIEW_SAMPLE_COST_S": str(SAMPLE_COST_S),
-    }
-    with open(log, "wb") as out:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "server", "--cell", str(cell), "--port", str(port)],
-            cwd=ROOT,
-            env=env,
-            stdout=out,
-            stderr=subprocess.STDOUT,
-        )
-    try:
+    env = {PASSWORD_ENV: "boschrexroth", "LINKVIEW_SAMPLE_COST_S": str(SAMPLE_COST_S)}
+    async with serving(cell, port, log, env):
         yield f"http://127.0.0.1:{port}"
-    finally:
-        proc.terminate()
-        try:
-            await asyncio.to_thread(proc.wait, 15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            await asyncio.to_thread(proc.wait)
 
 
 async def health(http: aiohttp.ClientSession, base: str) -> dict[str, Any] | None:

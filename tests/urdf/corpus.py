@@ -1,7 +1,8 @@
 """Robot descriptions published by their makers or by well-known robotics projects.
 
 None is copied into this repository: each is read where its PyPI package
-installed it (the test extras install pybullet, airo-models and rtb-data), as
+installed it (the test extras install pybullet, airo-models, rtb-data and
+example-robot-data, the last as data files of its wheel, not a module), as
 a user would copy a vendor's description package, and loaded without edits.
 ``packages`` is only given where the package renamed a ROS package's folder
 (rtb-data ships ROS-Industrial's ``kuka_kr6_support`` as ``kuka_kr6``); every
@@ -12,13 +13,19 @@ other ``package://`` and ``$(find)`` is found by linkview's own search.
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 from dataclasses import dataclass, field
 from pathlib import Path
 
+DATA = {"example-robot-data": "cmeel.prefix/share/example-robot-data/robots"}
+"""Distributions whose descriptions are data files of the wheel: where they land."""
+
 
 def installed(module: str) -> Path:
-    """The folder a PyPI package's top-level module was installed in (without importing it)."""
+    """The folder a PyPI package's top-level module (or data, ``DATA``) was installed in."""
+    if module in DATA:
+        return Path(str(importlib.metadata.distribution(module).locate_file(DATA[module])))
     spec = importlib.util.find_spec(module)
     assert spec is not None and spec.submodule_search_locations, f"{module} is not installed"
     return Path(next(iter(spec.submodule_search_locations)))
@@ -109,4 +116,30 @@ CORPUS: tuple[Described, ...] = (
     Described("ridgeback", "Clearpath Ridgeback, from rtb-data", "rtbdata",
               "xacro/clearpath_ridgeback_description/urdf/ridgeback.urdf.xacro",
               features=("mobile", "xacro", "find-by-package.xml")),
+    # example-robot-data: the Gepetto team's (LAAS-CNRS) collection, used with pinocchio.
+    Described("tiago_dual", "PAL Robotics TIAGo++ dual-arm mobile manipulator, example-robot-data",
+              "example-robot-data", "tiago_description/robots/tiago_dual.urdf",
+              features=("mobile", "dual-arm", "more than 60 joints", "mimic", "stl", "dae")),
+    Described("tiago", "PAL Robotics TIAGo mobile manipulator (example-robot-data)",
+              "example-robot-data", "tiago_description/robots/tiago.urdf",
+              features=("mobile", "more than 32 joints", "stl", "dae")),
+    Described("g1_hands", "Unitree G1 humanoid, 29 DoF with hands (example-robot-data)",
+              "example-robot-data", "g1_description/urdf/g1_29dof_with_hand_rev_1_0.urdf",
+              features=("humanoid", "more than 32 joints", "floating base", "stl")),
 )  # fmt: skip
+
+
+def tree_urdf(links: int, movable: int, name: str = "l", chain: bool = False) -> str:
+    """A binary tree (``chain``: a chain) of ``links`` box links; the first ``movable``
+    joints revolute, each link 10 mm above its parent."""
+    out = ['<robot name="big">', f'<link name="{name}0"/>']
+    for i in range(1, links):
+        kind = "revolute" if i <= movable else "fixed"
+        out.append(
+            f'<link name="{name}{i}"><visual><geometry><box size="0.01 0.01 0.01"/>'
+            f'</geometry></visual></link><joint name="j{i}" type="{kind}">'
+            f'<parent link="{name}{i - 1 if chain else (i - 1) // 2}"/><child link="{name}{i}"/>'
+            '<origin xyz="0 0 0.01"/><axis xyz="0 0 1"/>'
+            '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+        )
+    return "\n".join([*out, "</robot>"])

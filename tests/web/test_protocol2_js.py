@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from server.protocol import FRAMES_HEADER, ROBOT_HEADER, decode_frames
+from server.protocol import FRAMES_HEADER, FRAMES_VERSION, ROBOT_HEADER, decode_frames
 from server.stream.frames import MAX_ERROR_BYTES, compute_frame, encode_binary
 from server.stream.types import RobotSample
 from tests.conftest import demo_cell
@@ -148,8 +148,8 @@ def test_errors_in_any_language_and_robots_that_are_not_ok() -> None:
 
 def test_hand_built_message_and_an_empty_one() -> None:
     body = ROBOT_HEADER.pack(3, 1, 1, 1, 0) + np.arange(1 + 7 + 7, dtype="<f4").tobytes()
-    data = FRAMES_HEADER.pack(1, 2, 1, 42, 12.5, 13.25) + body
-    empty = FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0)
+    data = FRAMES_HEADER.pack(1, FRAMES_VERSION, 1, 42, 12.5, 13.25) + body
+    empty = FRAMES_HEADER.pack(1, FRAMES_VERSION, 0, 0, 0.0, 0.0)
     js, js_empty = decode_in_node([data, empty])
     assert_same(data, js)
     assert_same(empty, js_empty)
@@ -160,12 +160,13 @@ def test_hand_built_message_and_an_empty_one() -> None:
 
 BAD = [
     b"",
-    FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0)[:23],  # shorter than the header
+    FRAMES_HEADER.pack(1, FRAMES_VERSION, 0, 0, 0.0, 0.0)[:23],  # shorter than the header
     FRAMES_HEADER.pack(1, 1, 0, 0, 0.0, 0.0),  # version 1
-    FRAMES_HEADER.pack(2, 2, 0, 0, 0.0, 0.0),  # another kind
-    FRAMES_HEADER.pack(1, 2, 0, 0, 0.0, 0.0) + b"\0",  # a byte left over
-    FRAMES_HEADER.pack(1, 2, 1, 0, 0.0, 0.0) + ROBOT_HEADER.pack(0, 1, 2, 0, 0),  # cut off
-    FRAMES_HEADER.pack(1, 2, 2, 0, 0.0, 0.0)
+    FRAMES_HEADER.pack(2, FRAMES_VERSION, 0, 0, 0.0, 0.0),  # another kind
+    FRAMES_HEADER.pack(1, FRAMES_VERSION, 0, 0, 0.0, 0.0) + b"\0",  # a byte left over
+    FRAMES_HEADER.pack(1, FRAMES_VERSION, 1, 0, 0.0, 0.0)
+    + ROBOT_HEADER.pack(0, 1, 2, 0, 0),  # cut off
+    FRAMES_HEADER.pack(1, FRAMES_VERSION, 2, 0, 0.0, 0.0)
     + ROBOT_HEADER.pack(0, 0, 0, 0, 0)
     + bytes(28),  # the second robot is missing
 ]

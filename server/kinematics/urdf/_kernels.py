@@ -324,7 +324,7 @@ class SmallBatchKernel:
     """
 
     def __init__(self, tree: Tree, outputs: list[int]) -> None:
-        self._links = sorted({i for link in outputs for i in tree.path(link)})
+        self._links = tree.needed(outputs)
         at = {link: k for k, link in enumerate(self._links)}
         self._outputs = [at[link] for link in outputs]
         self._parent = [at.get(tree.links[i].parent, -1) for i in self._links]

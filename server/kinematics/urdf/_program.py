@@ -267,9 +267,12 @@ def _writes(op: Op) -> list[int]:
 
 def compile_frames(tree: Tree, outputs: Sequence[int]) -> Program:
     """Operations computing the frames of links ``outputs`` (tree indices), in that order."""
-    needed = sorted({i for link in outputs for i in tree.path(link)})
+    needed = tree.needed(outputs)
     prog = Program(n_joints=len(tree.joint_names))
     frames: dict[int, list[Col]] = {}
+    written: dict[int, list[int]] = {}
+    for frame, link in enumerate(outputs):
+        written.setdefault(link, []).append(frame)
     for i in needed:  # tree order: parents first
         parent = tree.links[i].parent
         if parent < 0:
@@ -277,7 +280,7 @@ def compile_frames(tree: Tree, outputs: Sequence[int]) -> Program:
         else:
             frames[i] = _move(prog, tree, i, list(frames[parent]))
         # Written out at once, so a frame's buffers are free for reuse after its children.
-        for frame in (f for f, link in enumerate(outputs) if link == i):
+        for frame in written.get(i, ()):
             prog.ops.extend(Out(frame, col, frames[i][col]) for col in range(4))
     prog.n_frames = len(outputs)
     _allocate(prog)

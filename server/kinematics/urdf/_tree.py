@@ -60,6 +60,19 @@ class Tree:
         """Link names in tree order."""
         return tuple(link.name for link in self.links)
 
+    def needed(self, outputs: Sequence[int]) -> list[int]:
+        """Every link on the way from the root to any of ``outputs``, in tree order.
+
+        Each walk up stops at a link already seen, so this is linear in the links
+        (a union of ``path``s would be quadratic along a long chain).
+        """
+        seen: set[int] = set()
+        for link in outputs:
+            while link >= 0 and link not in seen:
+                seen.add(link)
+                link = self.links[link].parent
+        return sorted(seen)
+
     def path(self, link: int) -> list[int]:
         """Indices of the links from the root to ``link``, both included."""
         out = [link]

@@ -84,7 +84,8 @@ class UrdfChain:
         moving = [i for i in path if links[i].kind in ("revolute", "prismatic")]
         self._active = np.array(sorted({links[i].source for i in moving}), dtype=np.intp)
         self._path = _Kernels(self._tree, path)
-        self._moving_at = np.array([path.index(i) for i in moving], dtype=np.intp)
+        at = {link: k for k, link in enumerate(path)}
+        self._moving_at = np.array([at[i] for i in moving], dtype=np.intp)
         self._moving_axes = np.array([links[i].axis for i in moving]).reshape(-1, 3)
         self._moving_revolute = np.array([links[i].kind == "revolute" for i in moving])
         # d(joint value)/d(active q): the mimic multipliers, one row per active joint.
