@@ -204,7 +204,8 @@ async def _node_id(server: Server, key: NodeIdKey) -> ua.NodeId:
 async def _analog(parent: Node, node_id: ua.NodeId, name: ua.QualifiedName, axis: SimAxis) -> Node:
     """An AnalogUnitType variable at ``node_id`` holding the axis's position."""
     kind = Node(parent.session, ANALOG_UNIT_TYPE)
-    node: Node = (await instantiate(parent, kind, node_id, bname=name))[0]
+    made = await instantiate(parent, kind, node_id, bname=name, instantiate_optional=False)
+    node: Node = made[0]
     await _describe(node, axis)
     return node
 
@@ -217,13 +218,18 @@ async def _describe(node: Node, axis: SimAxis) -> None:
     units = await node.get_child(ua.QualifiedName("EngineeringUnits", ua.UInt16(0)))
     await units.write_value(ua.Variant(eu_information(axis.unit), ua.VariantType.ExtensionObject))
     if math.isfinite(axis.lo) and math.isfinite(axis.hi):
-        await node.add_property(
-            ua.NodeId(NamespaceIndex=node.nodeid.NamespaceIndex),
-            ua.QualifiedName("EURange", ua.UInt16(0)),
-            ua.Range(Low=axis.lo, High=axis.hi),
-            ua.VariantType.ExtensionObject,
-            ua.NodeId(ua.Int32(ObjectIds.Range)),
-        )
+        limits = ua.Variant(ua.Range(Low=axis.lo, High=axis.hi), ua.VariantType.ExtensionObject)
+        name = ua.QualifiedName("EURange", ua.UInt16(0))
+        try:
+            await (await node.get_child(name)).write_value(limits)
+        except UaStatusCodeError:  # optional in AnalogUnitType: added where not instantiated
+            await node.add_property(
+                ua.NodeId(NamespaceIndex=node.nodeid.NamespaceIndex),
+                name,
+                limits,
+                ua.VariantType.ExtensionObject,
+                ua.NodeId(ua.Int32(ObjectIds.Range)),
+            )
 
 
 async def _path(server: Server, key: BrowsePathKey, axis: SimAxis) -> Node:
@@ -243,6 +249,7 @@ async def _path(server: Server, key: BrowsePathKey, axis: SimAxis) -> Node:
         server.get_node(ANALOG_UNIT_TYPE),
         ua.NodeId(NamespaceIndex=qname.NamespaceIndex),
         bname=qname,
+        instantiate_optional=False,
     )
     await _describe(variable, axis)
     return variable

@@ -73,6 +73,8 @@ class MockOptions:
     """Where the address space is cached (``address_space.companion_server``)."""
     period_s: float = PERIOD_S
     system: str = "linkview-mock"
+    subscriptions: bool = True
+    """False: CreateSubscription is refused (BadTooManySubscriptions), as by a small server."""
 
 
 class _Logins(UserManager):
@@ -115,6 +117,7 @@ class OpcuaMock:
         self._motion: asyncio.Task[None] | None = None
         self._temporary: tempfile.TemporaryDirectory[str] | None = None
         self._forgetful: set[int] = set()
+        self._starting = asyncio.Lock()
 
     @property
     def certificate_file(self) -> Path:
@@ -131,6 +134,17 @@ class OpcuaMock:
         self.host, self.port = host, port
         await self._boot()
         self._motion = asyncio.create_task(self._move(), name="mock-opcua-motion")
+        return self.url
+
+    async def ensure_started(self, host: str = "127.0.0.1", port: int = 0) -> str:
+        """Start once (on ``port``, or any free one if it is taken meanwhile); the URL."""
+        async with self._starting:
+            if not self.url:
+                try:
+                    await self.start(host, port)
+                except OSError:
+                    log.warning("port %d is taken; the mock OPC UA server takes another", port)
+                    await self.start(host, 0)
         return self.url
 
     async def close(self) -> None:
@@ -190,9 +204,12 @@ class OpcuaMock:
             tokens.append(ua.UserNameIdentityToken)
         server.set_identity_tokens(tokens)
         server.iserver.user_manager = _Logins(self.options)
+        if not self.options.subscriptions:
+            _refuse_subscriptions(server)
         for k in range(self.boots):  # a restarted server numbers its namespaces anew
             await server.register_namespace(f"urn:linkview:mock-opcua:boot-{k + 1}")
         self._served = await build_robots(server, self.machine, self.options.system)
+        await self._write(server)  # no client ever sees the placeholder zeros
         await server.start()
         assert server.bserver is not None
         self.port = server.bserver.port
@@ -262,19 +279,38 @@ class OpcuaMock:
         while True:
             await pacer.wait()
             server = self._server
-            if server is None or self.stalled:
-                if self.stalled:
-                    self._pause_clients()  # connections made meanwhile hang too
-                continue
-            t = self.machine.now()
-            stamp = ua.DateTime.fromtimestamp(t, dt.UTC)
-            positions = {g: self.machine.group_positions(g, t) for g in self.machine.groups}
-            setpoints: dict[str, Any] = {}
-            for node, group, index, setpoint in self._served.values:
-                if setpoint and group not in setpoints:
-                    setpoints[group] = self.machine.group_setpoints(group, t)
-                value = (setpoints if setpoint else positions)[group][index]
-                variant = ua.Variant(float(value), ua.VariantType.Double)
-                await server.write_attribute_value(
-                    node, ua.DataValue(variant, SourceTimestamp=stamp, ServerTimestamp=stamp)
-                )
+            if self.stalled:
+                self._pause_clients()  # connections made meanwhile hang too
+            elif server is not None:
+                await self._write(server)
+
+    async def _write(self, server: Server) -> None:
+        """The machine's positions (and setpoints) now, stamped with the simulation's time."""
+        t = self.machine.now()
+        stamp = ua.DateTime.fromtimestamp(t, dt.UTC)
+        positions = {g: self.machine.group_positions(g, t) for g in self.machine.groups}
+        setpoints: dict[str, Any] = {}
+        for node, group, index, setpoint in self._served.values:
+            if setpoint and group not in setpoints:
+                setpoints[group] = self.machine.group_setpoints(group, t)
+            value = (setpoints if setpoint else positions)[group][index]
+            variant = ua.Variant(float(value), ua.VariantType.Double)
+            await server.write_attribute_value(
+                node, ua.DataValue(variant, SourceTimestamp=stamp, ServerTimestamp=stamp)
+            )
+
+
+def _refuse_subscriptions(server: Server) -> None:
+    """Every session of ``server`` refuses CreateSubscription."""
+    iserver = server.iserver
+    make = iserver.create_session
+
+    async def refuse(*args: Any, **kwargs: Any) -> Any:
+        raise ServiceError(StatusCodes.BadTooManySubscriptions)
+
+    def create_session(name: str, *args: Any, **kwargs: Any) -> Any:
+        session = make(name, *args, **kwargs)
+        session.create_subscription = refuse  # type: ignore[method-assign]
+        return session
+
+    iserver.create_session = create_session  # type: ignore[method-assign]

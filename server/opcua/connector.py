@@ -13,15 +13,15 @@ that has it. The Robotics specification defines none, so this is a server's own.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Awaitable, Callable, Mapping
 
 from asyncua import ua
 from asyncua.ua.uaerrors import UaStatusCodeError
 
 from ..sources import Sample, SourceError
 from .follow import Follower
-from .nodes import parse_node
 from .resolve import UnitRule, resolve
 from .session import OpcuaSettings, Session, describe_failure, open_session
 
@@ -36,8 +36,11 @@ class OpcuaConnector:
         settings: OpcuaSettings,
         units: Mapping[str, UnitRule] | None = None,
         commands: Mapping[str, str] | None = None,
+        prepare: Callable[[], Awaitable[str]] | None = None,
     ) -> None:
         self.settings = settings
+        self.prepare = prepare
+        """Called before each session; gives the URL (an embedded mock: started on first call)."""
         self.units = dict(units or {})
         """The unit each node's values are delivered in (by node key); others: as read."""
         self.commands = dict(commands or {})
@@ -61,6 +64,9 @@ class OpcuaConnector:
         self, nodes: list[str], period_s: float, deliver: Callable[[Sample], None]
     ) -> None:
         """Deliver samples of ``nodes`` until the session is lost (then raise SourceError)."""
+        if self.prepare is not None:
+            url = await self.prepare()
+            self.settings = dataclasses.replace(self.settings, url=url)
         session = await open_session(self.settings)
         self._session = session
         try:
@@ -86,20 +92,14 @@ class OpcuaConnector:
     async def move(self, command_node: str, values: list[float]) -> None:
         """Call the method ``command_node`` names with ``values`` (one Double array)."""
         key = self.commands.get(command_node, command_node)
-        try:
-            parse_node(key)
-        except ValueError:
-            raise SourceError(
-                f"{command_node!r} is no OPC UA node: give the robot a command_node naming a "
-                "method that takes its joint positions"
-            ) from None
+        hint = "give the robot a command_node naming the OPC UA method that moves it"
         session = self._session
         if session is None or session.lost.done():
             raise SourceError(f"{self.settings.url}: not connected")
         try:
             resolved = await resolve(session.client, [key], {})
             if key in resolved.errors:
-                raise resolved.errors[key]
+                raise SourceError(f"{resolved.errors[key]}; {hint}")
             method = session.client.get_node(resolved.ids[key])
             parent = await method.get_parent()
             if parent is None:

@@ -5,15 +5,16 @@ period, queue size 1: the server keeps only the newest value of each). asyncua's
 publish loop hands us each PublishResponse whole (``on_publish``), and one
 response makes one Sample: no task, no call per item. An OPC UA server sends
 only what changed, so a robot at rest sends nothing; its last values are
-delivered again each period for as long as the server shows it is alive
-(responses or keep-alives), and ``received`` counts the publishing cycles a
-sample stands for. A server that refuses subscriptions (or publishes slower
+delivered again each period, with their time, for as long as the server shows
+it is alive (responses or keep-alives), and ``received`` counts the publishing
+cycles a sample stands for. A server that refuses subscriptions (or publishes slower
 than twice the period) is read instead: one Read of every node per period.
 """
 
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -27,6 +28,8 @@ from ..sources import Sample, SourceError
 from .resolve import Resolved
 from .session import Session, status_name
 
+log = logging.getLogger(__name__)
+
 KEEPALIVE_S = 0.25
 """How often a quiet server is asked to show it is alive (keep-alive publish responses)."""
 STALL_KEEPALIVES = 4
@@ -34,6 +37,9 @@ STALL_KEEPALIVES = 4
 LIFETIME_S = 10.0
 """How long the server keeps the subscription without our publish requests."""
 REFUSED = ("BadTooManySubscriptions", "BadServiceUnsupported", "BadTooManyMonitoredItems")
+HOLD_AFTER = 2.5
+"""Periods without a publish response after which the last values are delivered again (a late
+response is not worth a repeated sample: under load that would add work)."""
 SLOWEST_PUBLISHING = 2.0
 """A revised publishing interval beyond this many periods: read instead."""
 
@@ -63,8 +69,6 @@ class Follower:
         self.warning: str | None = None
         self._loop = asyncio.get_running_loop()
         self._t_source = 0.0
-        self._t_at = 0.0
-        """Loop time when ``_t_source`` arrived (held samples advance it by the time since)."""
         self._last_response = self._loop.time()
         self._last_delivery = self._loop.time()
         self._cycles = 0.0
@@ -145,6 +149,13 @@ class Follower:
 
     def on_publish(self, result: ua.PublishResult) -> None:
         """One PublishResponse (asyncua's publish loop): its changes made into one sample."""
+        try:
+            self._publish(result)
+        except Exception as exc:  # asyncua would swallow it: end the session, say why
+            log.exception("source %s: a publish response failed", self.session.settings.source)
+            self.session.mark_lost(f"internal error: {exc!r}")
+
+    def _publish(self, result: ua.PublishResult) -> None:
         now = self._loop.time()
         self._last_response = now
         data = result.NotificationMessage.NotificationData
@@ -162,7 +173,6 @@ class Follower:
                 self.session.mark_lost(f"the subscription ended: {status.name}")
                 return
         self._t_source = stamp.timestamp() if stamp is not None else time.time()
-        self._t_at = now
         if not self.missing:
             self._send(now, 1)
 
@@ -186,8 +196,12 @@ class Follower:
         self.values[self.keys[handle]] = SourceError(f"{self.keys[handle]}: {why}")
         self.missing.discard(handle)
 
-    def _send(self, now: float, least: int) -> None:
-        """Deliver the current values; ``least``: the cycles it stands for at minimum."""
+    def _send(self, now: float, least: int, hold_after_s: float | None = None) -> None:
+        """Deliver the current values; ``least``: the cycles it stands for at minimum.
+
+        The last values are delivered again ``hold_after_s`` later (default: after
+        ``HOLD_AFTER`` periods) unless new ones come first.
+        """
         self._cycles += (now - self._last_delivery) / self.interval_s
         received = max(least, int(self._cycles))
         self._cycles = max(0.0, self._cycles - received)
@@ -197,22 +211,25 @@ class Follower:
             return
         if self._timer is not None:
             self._timer.cancel()
-        self._timer = self._loop.call_at(now + 1.5 * self.period_s, self._hold)
+        wait = HOLD_AFTER * self.period_s if hold_after_s is None else hold_after_s
+        self._timer = self._loop.call_at(now + wait, self._hold)
 
     def _hold(self) -> None:
-        """No change for a while: the last values again, while the server shows it is alive."""
+        """No change for a while: the last values again, while the server shows it is alive.
+
+        They keep their time: the device said nothing newer (a robot at rest, or a late
+        publish), so the sample repeats the last one rather than claim a time it has no
+        values for.
+        """
         self._timer = None
         now = self._loop.time()
         if now - self._last_response > self._alive_s:
             return  # the server went quiet: no sample (the source turns stale; _watch ends it)
-        self._t_source += now - self._t_at
-        self._t_at = now
-        self._send(now, 0)
+        self._send(now, 0, self.period_s)
 
     def _deliver_all_errors(self) -> None:
         self._t_source = time.time()
-        self._t_at = self._loop.time()
-        self._send(self._t_at, 1)
+        self._send(self._loop.time(), 1)
 
     async def _watch(self) -> None:
         """Wait until the session is lost or the server stalls; raise SourceError."""
@@ -251,7 +268,7 @@ class Follower:
                 stamp = value.SourceTimestamp or stamp
                 self._store(handle, value)
             self._t_source = stamp.timestamp() if stamp is not None else time.time()
-            self._t_at = self._last_response = now
+            self._last_response = now
             self._send(now, 1)
             await pacer.wait()
         raise SourceError(f"{self.session.settings.url}: {self.session.lost.result()}")
