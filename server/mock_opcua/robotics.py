@@ -102,7 +102,22 @@ async def build_robots(server: Server, machine: Machine, system: str = SYSTEM) -
     served = Served()
     for group in machine.groups.values():
         await _device(space, devices, group, machine, served)
+    await _drop_placeholders(system_node)
     return served
+
+
+async def _drop_placeholders(node: Node) -> None:
+    """Remove what asyncua instantiated of the types' mandatory placeholders.
+
+    ``<MotionDeviceIdentifier>``, ``<AxisIdentifier>``, ... stand for the instances a
+    server adds (as the mock does); asyncua copies them as if they were nodes.
+    """
+    for child in await node.get_children():
+        name = (await child.read_browse_name()).Name or ""
+        if name.startswith("<") and name.endswith(">"):
+            await child.delete(recursive=True)
+        elif (await child.read_node_class()) == ua.NodeClass.Object:
+            await _drop_placeholders(child)
 
 
 class _Space:
@@ -155,10 +170,11 @@ async def _device(
 async def _axis(
     space: _Space, axes: Node, group: AxisGroup, index: int, axis: SimAxis, served: Served
 ) -> None:
-    base = f"{group.name}.Axes.{axis.name}"
+    # An axis at a node the cell names is called after it: A1, A2, ... make better names.
+    name = axis.name if axis.node is None else f"A{index + 1}"
     node = await axes.add_object(
-        space.mock_id(base),
-        ua.QualifiedName(axis.name, space.mock),
+        space.mock_id(f"{group.name}.Axes.{name}"),
+        ua.QualifiedName(name, space.mock),
         objecttype=space.robotics_id(AXIS_TYPE),
         instantiate_optional=False,
     )
@@ -181,9 +197,9 @@ async def _axis(
     if axis.setpoint_node is not None:
         setpoint = parse_node(axis.setpoint_node)
         if isinstance(setpoint, NodeIdKey):
-            name = ua.QualifiedName("CommandedPosition", space.mock)
+            commanded_name = ua.QualifiedName("CommandedPosition", space.mock)
             node_id = await _node_id(space.server, setpoint)
-            commanded = await _analog(parameters, node_id, name, axis)
+            commanded = await _analog(parameters, node_id, commanded_name, axis)
         else:
             commanded = await _path(space.server, setpoint, axis)
         served.values.append((commanded.nodeid, group.name, index, True))
