@@ -114,6 +114,9 @@ class Follower:
                 )
                 return False
             self.interval_s = max(revised, 1e-3)
+            keepalive_s = self.interval_s * max(1, created.RevisedMaxKeepAliveCount)
+            self._alive_s = max(1.0, STALL_KEEPALIVES * keepalive_s)
+            self._holding = True  # before the items: their first values may come at once
             results = await uaclient.create_monitored_items(self._items(created.SubscriptionId))
         except UaStatusCodeError as exc:
             if status_name(exc.code) not in REFUSED:
@@ -123,9 +126,6 @@ class Follower:
         for handle, result in enumerate(results):
             if not result.StatusCode.is_good():
                 self._fail(handle, result.StatusCode.name)
-        keepalive_s = self.interval_s * max(1, created.RevisedMaxKeepAliveCount)
-        self._alive_s = max(1.0, STALL_KEEPALIVES * keepalive_s)
-        self._holding = True
         return True
 
     def _items(self, subscription: int) -> ua.CreateMonitoredItemsParameters:

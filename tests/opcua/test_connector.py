@@ -249,3 +249,15 @@ async def test_a_move_calls_the_motion_devices_method(opcua_cache: Path) -> None
 
 def test_axis_names_build_the_keys_the_helpers_use() -> None:
     assert actual("iiwa", "iiwa_a1") == IIWA[0]
+
+
+async def test_a_robot_at_rest_keeps_streaming_its_last_values_with_their_time(
+    opcua_cache: Path,
+) -> None:
+    still = SimAxis("still", "deg", 1.0, 1.0, -90.0, 90.0)
+    machine = Machine([AxisGroup("rest", (still,), ((12.5,),))])
+    key = actual("rest", "still")
+    async with running(opcua_cache, machine) as mock, following(mock.url, [key]) as run:
+        samples = await run.samples_after(30)  # the server sends nothing while nothing changes
+    assert {s.values[key] for s in samples} == {12.5}
+    assert len({s.t_source for s in samples}) == 1  # no newer time than the server gave
