@@ -295,9 +295,9 @@ class OpcuaMock:
                 setpoints[group] = self.machine.group_setpoints(group, t)
             value = (setpoints if setpoint else positions)[group][index]
             variant = ua.Variant(float(value), ua.VariantType.Double)
-            await server.write_attribute_value(
-                node, ua.DataValue(variant, SourceTimestamp=stamp, ServerTimestamp=stamp)
-            )
+            # Only the SourceTimestamp: linkview asks for that alone (TimestampsToReturn), and a
+            # server honours it; asyncua's would send every timestamp the value holds.
+            await server.write_attribute_value(node, ua.DataValue(variant, SourceTimestamp=stamp))
 
 
 def _refuse_subscriptions(server: Server) -> None:
