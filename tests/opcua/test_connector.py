@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
 import statistics
+import time
 from pathlib import Path
 
 import numpy as np
@@ -259,5 +261,9 @@ async def test_a_robot_at_rest_keeps_streaming_its_last_values_with_their_time(
     key = actual("rest", "still")
     async with running(opcua_cache, machine) as mock, following(mock.url, [key]) as run:
         samples = await run.samples_after(30)  # the server sends nothing while nothing changes
+        start, began = len(run.samples), time.monotonic()
+        await asyncio.sleep(1.0)
+        held, elapsed = len(run.samples) - start, time.monotonic() - began
+    assert held <= elapsed / 0.02 + 1  # one a period at most: repeats never pile up
     assert {s.values[key] for s in samples} == {12.5}
     assert len({s.t_source for s in samples}) == 1  # no newer time than the server gave
