@@ -9,8 +9,7 @@ from pathlib import Path
 
 from ..cell.load import default_cache_dir
 from ..logs import setup_logging
-from ..mock_ctrlx import HOLD_S, Machine
-from ..mock_ctrlx.app import DEFAULT_LAG_S
+from ..mock_ctrlx.options import add_machine_options, machine_from
 from ..opcua.security import thumbprint
 from ..opcua.session import SECURITY_MODES
 from .server import PERIOD_S, MockOptions, OpcuaMock
@@ -30,7 +29,7 @@ async def _run(args: argparse.Namespace) -> None:
         cache=None if args.no_cache else default_cache_dir(),
         period_s=args.period_ms / 1000.0,
     )
-    mock = OpcuaMock(Machine(lag_s=args.lag_ms / 1000.0, hold_s=args.hold_s), options)
+    mock = OpcuaMock(machine_from(args), options)
     url = await mock.start(args.host, args.port)
     print(f"mock OPC UA server at {url} ({', '.join(options.security)})", flush=True)
     if any(mode != "None" for mode in options.security):
@@ -72,20 +71,7 @@ def main() -> None:
         help="build the address space anew (default: kept in linkview's cache for a fast start)",
     )
     parser.add_argument("--period-ms", type=float, default=PERIOD_S * 1000.0, metavar="MS")
-    parser.add_argument(
-        "--lag-ms",
-        type=float,
-        default=DEFAULT_LAG_S * 1000.0,
-        metavar="MS",
-        help="how far actual positions trail their setpoints",
-    )
-    parser.add_argument(
-        "--hold-s",
-        type=float,
-        default=HOLD_S,
-        metavar="S",
-        help="how long a commanded pose is held before the demo cycle resumes",
-    )
+    add_machine_options(parser)
     args = parser.parse_args()
     setup_logging()
     try:

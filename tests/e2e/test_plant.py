@@ -10,7 +10,7 @@ import pytest
 
 from server.config import Settings
 from tests.conftest import running_server
-from tests.e2e.test_faults import wait_for_health
+from tests.e2e.test_faults import wait_for_robots
 from tests.e2e.test_recording import read
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -23,26 +23,7 @@ async def test_the_plant_streams_every_robot_records_and_replays(
 ) -> None:
     monkeypatch.setenv("LINKVIEW_CACHE_DIR", str(opcua_cache))  # the OPC UA mock's address space
     async with running_server(Settings(cell=PLANT)) as base, aiohttp.ClientSession() as http:
-        health = await wait_for_health(
-            base,
-            lambda h: (
-                all(
-                    s["robots"].get(r, {}).get("frames", 0) > 100
-                    for s in h["sources"]
-                    for r in ROBOTS
-                    if r in s["robots"]
-                )
-                and sum(len(s["robots"]) for s in h["sources"]) == len(ROBOTS)
-            ),
-            timeout_s=60,
-        )
-        await wait_for_health(  # a while of both streaming
-            base,
-            lambda h: all(
-                s["robots"]["iiwa7"]["frames"] > 300 for s in h["sources"] if "iiwa7" in s["robots"]
-            ),
-            timeout_s=60,
-        )
+        health = await wait_for_robots(base, ROBOTS, 300, timeout_s=90)  # both, for a while
         kinds = {s["name"]: s["url"].split(":", 1)[0] for s in health["sources"]}
         assert kinds == {"kuka": "opc.tcp", "ctrlx": "http"}
         async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
@@ -63,16 +44,5 @@ async def test_the_plant_streams_every_robot_records_and_replays(
     assert len(set(stamps)) > len(stamps) / 2
 
     async with running_server(Settings(replay=saved, cell=PLANT)) as base:
-        health = await wait_for_health(
-            base,
-            lambda h: (
-                all(
-                    s["robots"].get(r, {}).get("frames", 0) > 10
-                    for s in h["sources"]
-                    for r in ROBOTS
-                    if r in s["robots"]
-                )
-                and sum(len(s["robots"]) for s in h["sources"]) == len(ROBOTS)
-            ),
-        )
+        health = await wait_for_robots(base, ROBOTS, 10)
         assert {s["url"] for s in health["sources"]} == {"replay:saved.mcap"}

@@ -19,7 +19,6 @@ built.
 from __future__ import annotations
 
 import math
-import re
 import tomllib
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -30,13 +29,11 @@ from tomlkit.items import Array, Comment, Table
 
 from ...mock_ctrlx.machine import IIWA_TRAFO, TYPE12_TRAFO
 from ...text import plural, printable
+from ..starter import _NAME, CHAIN_STEP_MM, SPACING_MM, _unique
 from .browse import Axis, Device, Found
 
-SPACING_MM = 1000.0
-CHAIN_STEP_MM = 200.0
 MAX_CHAIN = 6
 """Axes an ``axis_group`` placeholder holds (MotionPlus' limit); more: a URDF to give."""
-_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
 @dataclass(frozen=True)
@@ -233,15 +230,6 @@ def _inline(values: dict[str, Any]) -> Any:
     table = tomlkit.inline_table()
     table.update(values)
     return table
-
-
-def _unique(wanted: str, taken: set[str]) -> str:
-    base = _NAME.sub("_", wanted).strip("_") or "robot"
-    name, k = base[:60], 2
-    while name in taken:
-        name, k = f"{base[:56]}_{k}", k + 1
-    taken.add(name)
-    return name
 
 
 def listing(found: Found) -> Iterable[str]:
