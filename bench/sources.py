@@ -1,11 +1,13 @@
-"""Server CPU per robot-sample by kind of source: ctrlX, RTDE (500 Hz in, 50 Hz out), MQTT.
+"""Server CPU per robot-sample by kind of source: ctrlX, RTDE (500 Hz in, 50 Hz out), MQTT, OPC UA.
 
 For each kind and K: K robots, each on a source of its own, served by mocks in
 processes of their own (so their CPU is not the server's): the ctrlX mock
 (``python -m server.mock_ctrlx``, an LBR iiwa's 7 axes subscribed at 50 Hz),
 the RTDE mock (``python -m server.mock_rtde``, a UR5e's 6 joints at 500 Hz: ten
 packages per frame), Mosquitto with a publisher of the UR5e's joints as one
-JSON message per robot at 50 Hz. ``python -m server`` follows the cell with no
+JSON message per robot at 50 Hz, the mock OPC UA server (``python -m
+server.mock_opcua``, the same iiwa's 7 axes, one subscription per source at a
+20 ms publishing interval). ``python -m server`` follows the cell with no
 viewer; after a warm-up its CPU time (/proc) over the window is divided by the
 robot-samples it made into frames (/api/health). Robots per core: what one
 core would carry at 50 frames/s per robot. The kinds run alternately, several
@@ -13,7 +15,8 @@ rounds; the table has each kind's median and its ratio to ctrlX's from the same
 rounds (the machine is shared: the ratio is steadier than the figures).
 
 Usage: ``python bench/sources.py [--robots 10] [--seconds 5] [--rounds 3]
-[--quick]``; writes docs/benchmarks.md except in quick runs.
+[--kinds ctrlx opcua] [--quick]``; writes docs/benchmarks.md except in quick runs
+or when only some kinds were measured.
 """
 
 from __future__ import annotations
@@ -32,14 +35,21 @@ from contextlib import ExitStack
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+CACHE = tempfile.TemporaryDirectory(prefix="bench-sources-cache-")
 sys.path.insert(0, str(ROOT / "bench"))
 sys.path.insert(0, str(ROOT))
 from _report import markdown_table, publish  # noqa: E402
 from cluster import ARM_JOINTS, ARM_KINEMATICS, PASSWORD_ENV, health  # noqa: E402
 from viewers import cpu_seconds, free_port, stop  # noqa: E402
 
-KINDS = ("ctrlx", "rtde", "mqtt")
+KINDS = ("ctrlx", "rtde", "mqtt", "opcua")
 RTDE_CLIENTS_PER_MOCK = 5
+OPCUA_CLIENTS_PER_MOCK = 4
+OPCUA_NODES = [
+    f"nsu=urn:linkview:mock-opcua;s=iiwa.Axes.iiwa_a{i}.ParameterSet.ActualPosition"
+    for i in range(1, 8)
+]
+"""The mock OPC UA server's iiwa: the same arm as the ctrlX case's, units from the server."""
 SENT = re.compile(r"sent (\d+) data packages in ([\d.]+) s")
 RATE_HZ = 50.0
 UR5E = (
@@ -60,6 +70,10 @@ def cell_text(kind: str, robots: int, urls: list[str]) -> str:
             robot = f"joints = [{joints}]\nkinematics = {ARM_KINEMATICS}"
         elif kind == "rtde":
             source, robot = f'type = "rtde"\nurl = "{url}"', f"kinematics = {UR5E}"
+        elif kind == "opcua":
+            source = f'type = "opcua"\nurl = "{url}"'
+            joints = ", ".join(f'{{ node = "{n}" }}' for n in OPCUA_NODES)
+            robot = f"joints = [{joints}]\nkinematics = {ARM_KINEMATICS}"
         else:
             source = f'type = "mqtt"\nurl = "{url}"'
             joints = ", ".join(
@@ -75,6 +89,7 @@ def cell_text(kind: str, robots: int, urls: list[str]) -> str:
 
 def start(stack: ExitStack, argv: list[str], log: Path) -> subprocess.Popen[bytes]:
     env = {**os.environ, "PYTHONPATH": str(ROOT), PASSWORD_ENV: "boschrexroth"}
+    env["LINKVIEW_CACHE_DIR"] = CACHE.name  # the OPC UA mock's address space, built once
     with open(log, "ab") as out:
         process = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=out, stderr=out)
     stack.callback(stop, process)
@@ -109,6 +124,15 @@ def start_mock(stack: ExitStack, kind: str, robots: int, folder: Path) -> list[s
             start(stack, argv, folder / f"mock-rtde-{k}.log")
             wait_port(port)
             urls.append(f"rtde://127.0.0.1:{port}")
+        return urls
+    if kind == "opcua":  # an asyncua server publishes to a few sessions only
+        urls = []
+        for k in range(math.ceil(robots / OPCUA_CLIENTS_PER_MOCK)):
+            port = free_port()
+            argv = [sys.executable, "-m", "server.mock_opcua", "--port", str(port)]
+            start(stack, [*argv, "--security", "None"], folder / f"mock-opcua-{k}.log")
+            wait_port(port, timeout_s=120.0)  # the first start builds the address space
+            urls.append(f"opc.tcp://127.0.0.1:{port}")
         return urls
     config = folder / "mosquitto.conf"
     config.write_text(f"listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n")
@@ -191,6 +215,7 @@ def main() -> None:
     parser.add_argument("--warmup", type=float, default=4.0)
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds per kind")
     parser.add_argument("--quick", action="store_true", help="2 robots, 1 s, 1 round; no docs")
+    parser.add_argument("--kinds", nargs="+", choices=KINDS, default=list(KINDS))
     parser.add_argument("--publish", nargs=2, type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.publish:
@@ -198,15 +223,16 @@ def main() -> None:
         return
     if args.quick:
         args.robots, args.seconds, args.warmup, args.rounds = 2, 1.0, 3.0, 1
-    results: dict[str, list[dict[str, float]]] = {kind: [] for kind in KINDS}
+    kinds = ["ctrlx", *(k for k in KINDS if k in args.kinds and k != "ctrlx")]
+    results: dict[str, list[dict[str, float]]] = {kind: [] for kind in kinds}
     for _ in range(args.rounds):
-        for kind in KINDS:
+        for kind in kinds:
             case = run_case(kind, args.robots, args.warmup, args.seconds)
             results[kind].append(case)
             print(f"{kind}: {case['ms']:.3f} ms per robot-sample, {case['hz']:.1f} frames/s/robot")
     ctrlx = [c["ms"] for c in results["ctrlx"]]
     rows = []
-    for kind in KINDS:
+    for kind in kinds:
         ms = [c["ms"] for c in results[kind]]
         ratios = [m / c for m, c in zip(ms, ctrlx, strict=True)]
         median = statistics.median(ms)
@@ -220,7 +246,8 @@ def main() -> None:
                 f"{min(c['connected'] for c in results[kind]):.0f} of {args.robots}",
             ]
         )
-    packages = statistics.median(c["sent_hz"] for c in results["rtde"])
+    rtde = results.get("rtde") or [{"sent_hz": math.nan}]
+    packages = statistics.median(c["sent_hz"] for c in rtde)
     header = ["kind", "ms CPU per robot-sample", "x ctrlX", "frames/s per robot"]
     header += ["robots per core at 50 Hz", "sources connected"]
     body = markdown_table(header, rows)
@@ -232,10 +259,13 @@ def main() -> None:
         f"mock UR controllers' data packages ({packages:.0f} per second and source as the mocks "
         f"counted them, {RTDE_CLIENTS_PER_MOCK} sources per mock process), a UR5e (6 joints) "
         "per source; the newest of each 20 ms is unpacked. MQTT: Mosquitto, one JSON message "
-        "with a UR5e's joints per robot at 50 Hz. Mocks and broker run in processes of their "
-        "own on the same machine."
+        "with a UR5e's joints per robot at 50 Hz. OPC UA: the mock OPC UA server's iiwa (the "
+        "same 7 joints as ctrlX's), one session and one subscription (20 ms publishing "
+        f"interval) per source, {OPCUA_CLIENTS_PER_MOCK} sources per mock process, units "
+        "from its EngineeringUnits. Mocks and broker run in processes of their own on the "
+        "same machine."
     )
-    if args.quick:
+    if args.quick or len(kinds) < len(KINDS):
         print(body)
     else:
         publish("bench/sources.py", "Sources: CPU per robot-sample by kind", body)

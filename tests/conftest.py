@@ -53,6 +53,12 @@ def no_writes_to_the_user_cache(user_cache: Path) -> Iterator[None]:
         pytest.fail(f"wrote to the user's cache (pass a temporary cache_dir): {written}")
 
 
+@pytest.fixture(scope="session")
+def opcua_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Where mock OPC UA servers keep their address space (built once per test session)."""
+    return tmp_path_factory.mktemp("opcua-cache")
+
+
 def demo_cell() -> Cell:
     """The shipped demo cell, as ``python -m server`` runs it without ``--cell``."""
     return load_cell(DEMO_CELL)

@@ -20,6 +20,8 @@ from pathlib import Path
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
 from ..mqtt.nodes import check_mqtt_url, parse_node
+from ..opcua import check_node as check_opcua_node
+from ..opcua import check_opcua_url, load_certificates
 from ..protocol import RobotInfo
 from ..rtde.wire import check_rtde_url, parse_key, register_key
 from ..sandbox import Limits
@@ -48,6 +50,30 @@ class KindRules:
     """Raises ValueError for a node key this kind cannot read (None: any non-empty string)."""
     default_unit: schema.Unit | None = None
     """A joint's unit where the cell leaves it out (None: the schema's, degrees)."""
+    unit_from_device: bool = False
+    """A joint without ``unit`` takes its node's own: deg (rotary) or mm (linear), converted
+    by the connector."""
+    check_source: (
+        Callable[[schema.SourceBase, Callable[[str], Path]], list[tuple[str, str]]] | None
+    ) = None
+    """Problems with the kind's own keys, ``(key, reason)``; paths resolved from the cell."""
+
+
+def _check_opcua(spec: schema.SourceBase, resolve: Callable[[str], Path]) -> list[tuple[str, str]]:
+    """An OPC UA source's login and certificate keys."""
+    problems: list[tuple[str, str]] = []
+    if not isinstance(spec, schema.OpcuaSource):
+        return problems
+    if spec.password_env is not None and spec.user is None:
+        problems.append(("user", "required with password_env (else the session is anonymous)"))
+    if spec.user is not None and spec.password_env is None:
+        problems.append(("password_env", f"required with user {spec.user!r}"))
+    if spec.server_certificate is not None:
+        try:
+            load_certificates(resolve(spec.server_certificate))
+        except ValueError as exc:
+            problems.append(("server_certificate", str(exc)))
+    return problems
 
 
 KIND_RULES: dict[str, KindRules] = {
@@ -57,6 +83,13 @@ KIND_RULES: dict[str, KindRules] = {
     "rtde": KindRules(check_rtde_url, check_node=parse_key, default_unit="rad"),
     # A broker may be anonymous; a user logs in with the password from password_env.
     "mqtt": KindRules(check_mqtt_url, check_node=parse_node),
+    # OPC UA: anonymous unless the cell names a user; units from the nodes' EngineeringUnits.
+    "opcua": KindRules(
+        check_opcua_url,
+        check_node=check_opcua_node,
+        unit_from_device=True,
+        check_source=_check_opcua,
+    ),
 }
 
 
@@ -89,6 +122,8 @@ class Source:
     allow_commands: bool = False
     replay: Path | None = None
     """A recording played instead of reading a data layer (``url`` is then None)."""
+    folder: Path | None = None
+    """The cell file's folder: a kind's own relative paths start there (None: no file)."""
 
 
 @dataclass(frozen=True)
@@ -271,6 +306,9 @@ class _Builder:
                 client_ssl(ca)
             except ValueError as exc:
                 self._report((f"{key}.ca", str(exc)))
+        if rules.check_source is not None:
+            for name, reason in rules.check_source(spec, self.where.resolve):
+                self._report((f"{key}.{name}", reason))
         replay = None if spec.replay is None else self.where.resolve(spec.replay)
         if replay is not None and spec.url is not None:
             self._report((f"{key}.replay", "a source replays a recording or has a url"))
@@ -290,6 +328,7 @@ class _Builder:
             period_s=None if spec.period_ms is None else spec.period_ms / 1000.0,
             allow_commands=spec.allow_commands,
             replay=replay,
+            folder=self.where.cell_dir,
         )
 
     def _robot(self, index: int, spec: schema.Robot) -> Robot | None:
@@ -383,9 +422,11 @@ class _Builder:
             if node is None:
                 ok = False
                 continue
-            unit = entry.unit
+            unit, from_device = entry.unit, False
             if rules.default_unit is not None and "unit" not in entry.model_fields_set:
                 unit = rules.default_unit
+            elif rules.unit_from_device and "unit" not in entry.model_fields_set:
+                unit, from_device = ("mm" if linear else "deg"), True
             if linear != (unit in ("mm", "m")):
                 motion, units = ("linear", "mm or m") if linear else ("rotary", "deg or rad")
                 self._report(
@@ -407,6 +448,7 @@ class _Builder:
                 offset=entry.offset,
                 limits=built.limits[slot],
                 setpoint=setpoint,
+                unit_from_device=from_device,
             )
         with_setpoint = [entry.setpoint is not None for entry in entries]
         if any(with_setpoint) and not all(with_setpoint):

@@ -46,6 +46,9 @@ class Joint:
     """[lower, upper] in rad or m; None: unlimited."""
     setpoint: str | None = None
     """Node of the joint's setpoint (interpolated position), mapped as ``node`` is."""
+    unit_from_device: bool = False
+    """The cell leaves the unit out: the source converts the node's own (OPC UA's
+    EngineeringUnits) into ``source_unit``."""
 
     @property
     def si_unit(self) -> Literal["rad", "m"]:

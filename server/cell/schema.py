@@ -95,6 +95,25 @@ class MqttSource(SourceBase):
     """The MQTT client identifier; default: one the broker assigns."""
 
 
+class OpcuaSource(SourceBase):
+    """An OPC UA server: ``opc.tcp://HOST[:PORT][/PATH]`` (port 4840 by convention).
+
+    Joints name NodeIds or browse paths (``server.opcua.nodes``); a joint without
+    ``unit`` takes its node's EngineeringUnits. ``ca`` and ``insecure`` do not apply.
+    """
+
+    type: Literal["opcua"]
+    user: str | None = None  # type: ignore[assignment]
+    """Username, its password from ``password_env``; none: an anonymous session."""
+    security: Literal["None", "Sign", "SignAndEncrypt"] = "None"
+    """Basic256Sha256 signing, or signing and encryption; ``None``: neither."""
+    server_certificate: str | None = None
+    """The server's certificate to trust (DER or PEM; relative paths: the cell's folder)."""
+    client_certificate: str = "linkview-opcua-client.der"
+    """linkview's own certificate, made there at the first secure session (its key beside it,
+    ``<name>.key.pem``); the server's administrator trusts it once."""
+
+
 DEFAULT_SOURCE_TYPE = "ctrlx"
 
 
@@ -109,14 +128,19 @@ def _source_type(value: object) -> str:
 Source = Annotated[
     Annotated[CtrlxSource, Tag("ctrlx")]
     | Annotated[RtdeSource, Tag("rtde")]
-    | Annotated[MqttSource, Tag("mqtt")],
+    | Annotated[MqttSource, Tag("mqtt")]
+    | Annotated[OpcuaSource, Tag("opcua")],
     Discriminator(_source_type),
 ]
-SOURCE_TYPES = ("ctrlx", "rtde", "mqtt")
+SOURCE_TYPES = ("ctrlx", "rtde", "mqtt", "opcua")
 
 
 class Joint(_Strict):
-    """A joint's data-layer node; SI value = (value x scale + offset) converted from ``unit``."""
+    """A joint's node; SI value = (value x scale + offset) converted from ``unit``.
+
+    ``unit`` left out: degrees (RTDE: radians; OPC UA: the node's own EngineeringUnits,
+    delivered in degrees for rotary joints, millimetres for linear ones).
+    """
 
     # ``register`` is an attribute of pydantic's models: the key is an alias.
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)

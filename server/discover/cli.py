@@ -24,6 +24,10 @@ def main(argv: list[str]) -> int:
         from .rtde import main as rtde_main
 
         return rtde_main(argv)
+    if any(arg.startswith("opc.tcp://") for arg in argv):  # an OPC UA server: its own options
+        from .opcua import main as opcua_main
+
+        return opcua_main(argv)
     parser = argparse.ArgumentParser(
         prog="python -m server discover",
         description="Browse a ctrlX CORE's data layer for its motion axes and kinematics, list "

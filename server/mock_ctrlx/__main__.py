@@ -8,8 +8,8 @@ import tempfile
 from pathlib import Path
 
 from ..logs import setup_logging
-from .app import DEFAULT_LAG_S, build_app, serve
-from .machine import HOLD_S, Machine
+from .app import build_app, serve
+from .options import add_machine_options, machine_from
 from .tls import certificate_in
 
 
@@ -22,7 +22,7 @@ async def _run(args: argparse.Namespace) -> None:
             kept = "a new certificate" if made else "the certificate kept"
             note = f" with {kept} in {cert.ca_file.parent} (trust it: --ctrlx-ca {cert.ca_file})"
         app = build_app(
-            Machine(lag_s=args.lag_ms / 1000.0, hold_s=args.hold_s),
+            machine_from(args),
             token_lifetime_s=args.token_lifetime,
             changes_only=args.changes_only,
             subscription_lifetime_s=args.subscription_lifetime,
@@ -58,20 +58,7 @@ def main() -> None:
         help="keep the certificate here and reuse it at the next start, as a device does "
         "(default: a new one in a temporary folder)",
     )
-    parser.add_argument(
-        "--lag-ms",
-        type=float,
-        default=DEFAULT_LAG_S * 1000.0,
-        metavar="MS",
-        help="how far actual positions trail their setpoints (state/values/ipo/pos)",
-    )
-    parser.add_argument(
-        "--hold-s",
-        type=float,
-        default=HOLD_S,
-        metavar="S",
-        help="how long a commanded pose is held before the demo cycle resumes",
-    )
+    add_machine_options(parser, "setpoints (state/values/ipo/pos)")
     parser.add_argument(
         "--changes-only",
         action="store_true",

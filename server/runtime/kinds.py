@@ -183,9 +183,16 @@ async def open_mqtt(config: Source, robots: list[Robot], defaults: SourceDefault
     return Opened(moved, url, _Closing(publisher, broker))
 
 
+def _open_opcua(config: Source, robots: list[Robot], defaults: SourceDefaults) -> Awaitable[Opened]:
+    from .opcua_source import open_opcua  # it imports Opened from here
+
+    return open_opcua(config, robots, defaults)
+
+
 OPENERS: dict[str, Opener] = {
     "ctrlx": open_ctrlx,
     "rtde": open_rtde,
     "mqtt": open_mqtt,
+    "opcua": _open_opcua,
 }
 """The opener of each ``type`` a cell's source may have (``server.cell.schema.SOURCE_TYPES``)."""

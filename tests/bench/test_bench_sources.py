@@ -15,7 +15,7 @@ def test_help_names_the_kinds_it_measures() -> None:
         [sys.executable, str(BENCH), "--help"], capture_output=True, text=True, timeout=60
     )
     assert done.returncode == 0
-    assert "ctrlX, RTDE" in done.stdout and "--quick" in done.stdout
+    assert "ctrlX, RTDE" in done.stdout and "OPC UA" in done.stdout and "--quick" in done.stdout
 
 
 def test_quick_mode_measures_every_kind_and_leaves_the_docs_alone() -> None:
@@ -25,7 +25,7 @@ def test_quick_mode_measures_every_kind_and_leaves_the_docs_alone() -> None:
     )
     assert done.returncode == 0, done.stderr[-2000:]
     rows = [line for line in done.stdout.splitlines() if line.startswith("| ")]
-    assert [row.split("|")[1].strip() for row in rows[1:]] == ["ctrlx", "rtde", "mqtt"]
+    assert [row.split("|")[1].strip() for row in rows[1:]] == ["ctrlx", "rtde", "mqtt", "opcua"]
     # Every kind's sources connected and made frames.
     assert all(row.split("|")[-2].strip() == "2 of 2" for row in rows[1:])
     assert (ROOT / "docs" / "benchmarks.md").read_bytes() == docs

@@ -309,8 +309,8 @@ def test_docs_describe_every_key_and_their_example_is_valid() -> None:
     doc = (ROOT / "docs" / "cell.md").read_text()
     example = doc.split("```toml\n", 1)[1].split("```", 1)[0]
     schema.Cell.model_validate(tomllib.loads(example))
-    models = (schema.CtrlxSource, schema.RtdeSource, schema.MqttSource, schema.Robot)
-    models += (schema.Joint, schema.Type12, schema.DH)
+    models = (schema.CtrlxSource, schema.RtdeSource, schema.MqttSource, schema.OpcuaSource)
+    models += (schema.Robot, schema.Joint, schema.Type12, schema.DH)
     models += (schema.Axis, schema.AxisGroup, schema.Urdf, schema.Pose)
     prose = re.sub(r"```.*?```", "", doc, flags=re.S)
     named = {word for span in re.findall(r"`([^`]+)`", prose) for word in re.findall(r"\w+", span)}

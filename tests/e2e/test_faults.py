@@ -33,6 +33,18 @@ async def wait_for_health(base: str, predicate: Any, timeout_s: float = 15.0) ->
     return health
 
 
+async def wait_for_robots(
+    base: str, robots: tuple[str, ...], frames: int, timeout_s: float = 15.0
+) -> dict[str, Any]:
+    """Health once every one of ``robots`` (and no other) has made more than ``frames``."""
+
+    def made(health: dict[str, Any]) -> bool:
+        seen = {name: r for s in health["sources"] for name, r in s["robots"].items()}
+        return set(seen) == set(robots) and all(r.get("frames", 0) > frames for r in seen.values())
+
+    return await wait_for_health(base, made, timeout_s)
+
+
 async def latest_frames(base: str, robots: set[str]) -> dict[str, dict[str, Any]]:
     """The first frame of each robot in ``robots`` a fresh viewer sees."""
     seen: dict[str, dict[str, Any]] = {}

@@ -20,7 +20,7 @@ from server.mock_ctrlx import Machine
 from server.mock_rtde import RtdeMock, demo_groups
 from server.mqtt import Mosquitto
 from tests.conftest import free_port, running_server
-from tests.e2e.test_faults import health_of, wait_for_health
+from tests.e2e.test_faults import health_of, wait_for_health, wait_for_robots
 from tests.e2e.test_recording import read
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -187,14 +187,7 @@ async def test_a_malformed_payload_is_named_in_health_and_a_good_one_streams(
 async def test_the_mixed_cell_streams_every_robot_records_and_replays(tmp_path: Path) -> None:
     robots = ("ur5e", "positioner", "kin12", "iiwa7")
     async with running_server(Settings(cell=MIXED)) as base, aiohttp.ClientSession() as http:
-        await wait_for_health(
-            base,
-            lambda h: (
-                all(r.get("frames", 0) > 100 for s in h["sources"] for r in s["robots"].values())
-                and len([r for s in h["sources"] for r in s["robots"]]) == len(robots)
-            ),
-            timeout_s=30,
-        )
+        await wait_for_robots(base, robots, 100, timeout_s=30)
         async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
             assert r.status == 200
             saved = tmp_path / "saved.mcap"
@@ -210,18 +203,7 @@ async def test_the_mixed_cell_streams_every_robot_records_and_replays(tmp_path: 
     assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False))  # no package twice
 
     async with running_server(Settings(replay=saved, cell=MIXED)) as base:
-        health = await wait_for_health(
-            base,
-            lambda h: (
-                all(
-                    s["robots"].get(r, {}).get("frames", 0) > 10
-                    for s in h["sources"]
-                    for r in robots
-                    if r in s["robots"]
-                )
-                and sum(len(s["robots"]) for s in h["sources"]) == len(robots)
-            ),
-        )
+        health = await wait_for_robots(base, robots, 10)
         assert {s["url"] for s in health["sources"]} == {"replay:saved.mcap"}
 
 

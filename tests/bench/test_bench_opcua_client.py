@@ -1,0 +1,38 @@
+"""bench/opcua_client.py starts with --help and runs its quick mode (no docs written)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BENCH = ROOT / "bench" / "opcua_client.py"
+
+
+def test_help_says_what_it_measures() -> None:
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0
+    assert "OPC UA sample's CPU" in done.stdout and "--quick" in done.stdout
+
+
+def test_quick_mode_splits_the_opc_ua_clients_cost_and_leaves_the_docs_alone() -> None:
+    docs = (ROOT / "docs" / "benchmarks.md").read_bytes()
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--quick"], capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows = {
+        line.split("|")[1].strip(): float(line.split("|")[2])
+        for line in done.stdout.splitlines()
+        if line.startswith("| ") and not line.startswith("| part")
+    }
+    parts = [cost for name, cost in rows.items() if name.startswith("OPC UA: ")]
+    # The parts add up to the whole (the rest is what the clocks did not cover).
+    assert sum(parts) == pytest.approx(rows["OPC UA client, all of it"], abs=0.003)  # 3 decimals
+    assert all(cost > 0.0 for cost in parts[:-1])
+    assert (ROOT / "docs" / "benchmarks.md").read_bytes() == docs
