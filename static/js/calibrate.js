@@ -294,6 +294,8 @@ class Calibration {
 			return item;
 
 		} ) );
+		// Nothing to fit or clear without samples; with some, the server names what is missing.
+		this.fitButton.disabled = this.clearButton.disabled = this.samples.length === 0;
 		this.applyButton.hidden = this.result === null;
 		this._draw();
 
