@@ -4,7 +4,9 @@ The same channels as a recording (``/tf``, ``/scene``, ``/log``,
 ``/<robot>/joints``), taken from the histories every DRAIN_S and encoded in
 a worker thread, only while a client subscribes. A client that subscribes to
 ``/scene`` or ``/tf`` gets the meshes and the base frames again, since the SDK
-keeps no message for late joiners.
+keeps no message for late joiners: encoded once per cell (in a worker
+thread) and sent again at most every RESEND_MIN_S, however often clients
+subscribe. Clients reach the SDK's server only through the ``guard``.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from collections.abc import Callable
 import foxglove
 from foxglove.websocket import ChannelView, Client, ServerListener, WebSocketServer
 
+from ..access import Access
 from ..cell import Cell
 from ..history import History, HistoryReader
 from ..recording.encode import Encoded, encode_batch
@@ -33,12 +36,16 @@ from ..recording.messages import (
     nanoseconds,
     scene_update,
 )
-from .guard import TokenGuard
+from .guard import Guard
 
 log = logging.getLogger(__name__)
 
 DRAIN_S = 0.05
 NAME = "linkview"
+BACKLOG = 64
+"""Messages the SDK's server keeps for a client that reads slowly (it drops the oldest)."""
+RESEND_MIN_S = 5.0
+"""The meshes and base frames go out again at most this often (each subscribe asks for them)."""
 
 
 class _Listener(ServerListener):
@@ -66,36 +73,41 @@ class FoxgloveEndpoint:
         cell_of: Callable[[], Cell],
         host: str,
         port: int,
-        token: str | None = None,
+        access: Access | None = None,
+        max_clients: int = 1000,
     ) -> None:
         self.cell_of = cell_of
-        self.host, self.port, self.token = host, port, token
+        self.host, self.port = host, port
+        self.access = access or Access()
+        self.max_clients = max_clients
         self.reader = HistoryReader(history, from_start=False)
         self.listener = _Listener()
         self.context = foxglove.Context()
         self.server: WebSocketServer | None = None
-        self.guard: TokenGuard | None = None
+        self.guard: Guard | None = None
         self.sent = 0
         """Messages logged to the server so far."""
+        self.scene_encodings = 0
+        """Times the meshes and base frames were encoded (once per cell)."""
         self._cell: Cell | None = None
+        self._scene: tuple[bytes, bytes] | None = None
+        """The cell's meshes and base frames, encoded."""
+        self._resent_at = -RESEND_MIN_S
         self._frames: dict[str, RobotFrames] = {}
         self._channels: dict[str, foxglove.Channel] = {}
 
     async def start(self) -> int:
         """Listen; returns the port clients connect to."""
-        behind_guard = self.token is not None
         self.server = foxglove.start_server(
             name=NAME,
-            host="127.0.0.1" if behind_guard else self.host,
-            port=0 if behind_guard else self.port,
+            host="127.0.0.1",
+            port=0,
             context=self.context,
             server_listener=self.listener,
+            message_backlog_size=BACKLOG,
         )
-        if self.token is None:
-            self.port = self.server.port
-        else:
-            self.guard = TokenGuard(self.token, self.server.port)
-            self.port = await self.guard.start(self.host, self.port)
+        self.guard = Guard(self.access, self.server.port, self.max_clients)
+        self.port = await self.guard.start(self.host, self.port)
         log.info("foxglove: serving ws://%s:%d", self.host, self.port)
         return self.port
 
@@ -117,10 +129,11 @@ class FoxgloveEndpoint:
         if self.listener.subscriptions == 0:
             return
         messages = await asyncio.to_thread(encode_batch, sources, marks, self._frames)
-        if self.listener.resend:
+        if self.listener.resend and time.monotonic() - self._resent_at >= RESEND_MIN_S:
             self.listener.resend = False
+            self._resent_at = time.monotonic()
             first = [float(s.rows.t[0]) for s in sources if len(s.rows)]
-            messages = self._cell_messages(cell, min(first, default=time.time())) + messages
+            messages = await self._cell_messages(cell, min(first, default=time.time())) + messages
         self._log(messages)
 
     def _advertise(self, cell: Cell) -> None:
@@ -141,15 +154,28 @@ class FoxgloveEndpoint:
                 context=self.context,
             )
         self._cell = cell
+        self._scene = None
         self._frames = {r.name: RobotFrames(r) for r in cell.robots}
         self.listener.resend = True
 
-    def _cell_messages(self, cell: Cell, now: float) -> list[Encoded]:
-        robots = list(cell.robots)
-        return [
-            (SCENE_TOPIC, nanoseconds(now), scene_update(robots, now)),
-            (TF_TOPIC, nanoseconds(now), base_transforms(robots, now)),
-        ]
+    async def _cell_messages(self, cell: Cell, now: float) -> list[Encoded]:
+        """The meshes and base frames, encoded the first time they are asked for per cell.
+
+        Stamped with the time of that first encoding: never younger than a
+        sample sent after it, so the base frames hold for every later sample;
+        logged at ``now`` (the first sample of the drain they go out with).
+        """
+        if self._scene is None:
+            robots = list(cell.robots)
+            scene, bases = await asyncio.to_thread(
+                lambda: (scene_update(robots, now), base_transforms(robots, now))
+            )
+            self.scene_encodings += 1
+            if cell is not self._cell:  # reloaded meanwhile: the next drain encodes the new one
+                return []
+            self._scene = (scene, bases)
+        scene, bases = self._scene
+        return [(SCENE_TOPIC, nanoseconds(now), scene), (TF_TOPIC, nanoseconds(now), bases)]
 
     def _log(self, messages: list[Encoded]) -> None:
         for topic, log_time, data in messages:
