@@ -33,6 +33,8 @@ MAX_TEXT = 4096
 """Characters of any one text of a status record (an error, a URL, a worker's id)."""
 MAX_JOINTS = 64
 FRAMES_PROTOCOL = {"frames1": 1, "frames2": 2}
+ITEMS_PER_SOURCE = 3
+"""Items of one source in a batch: a worker publishes each of its three keys once."""
 
 Text = Annotated[str, Field(max_length=MAX_TEXT)]
 
@@ -81,8 +83,6 @@ class Inbound:
     def __init__(self, cell: Cell) -> None:
         self.robots = {s.name: {r.name for r in cell.robots_of(s.name)} for s in cell.sources}
         self.robot_count = len(cell.robots)
-        self.most_items = 3 * len(cell.sources)
-        """Items in one batch: a worker publishes at most three keys per source it holds."""
 
     def item(self, item: Item) -> tuple[str, str]:
         """The key's kind and source, if the item is one a worker publishes; else Refused."""

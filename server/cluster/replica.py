@@ -24,6 +24,7 @@ import contextlib
 import hashlib
 import logging
 import time
+from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
@@ -51,7 +52,7 @@ from .broker import (
     member_of,
     reply_channel,
 )
-from .inbound import Inbound, Refused, answer_of
+from .inbound import ITEMS_PER_SOURCE, Inbound, Refused, answer_of
 from .supervise import supervised
 
 log = logging.getLogger(__name__)
@@ -204,6 +205,9 @@ class Replica(Runtime):
                         self._on_batch(message["data"])
                     else:
                         self._checked(self._on_answer, message["data"])
+                    # Buffered messages come without a wait: a burst must not hold the loop
+                    # (and the viewers' writes) until it is all read.
+                    await asyncio.sleep(0)
             except (RedisError, OSError) as exc:
                 self._lost_broker(exc, retry)
             finally:
@@ -236,10 +240,13 @@ class Replica(Runtime):
 
     def _on_batch(self, data: bytes) -> None:
         """A worker's batch: each item checked, then fed to the hub (or health) as it came."""
+        per_source: Counter[str] = Counter()
         try:
-            for n, item in enumerate(envelope.unpack(data), 1):
-                if n > self.inbound.most_items:
-                    raise Refused("batch", f"a batch of more than {n - 1} items")
+            for item in envelope.unpack(data):
+                source = item[0].partition(":")[2]
+                per_source[source] += 1
+                if per_source[source] > ITEMS_PER_SOURCE:  # a worker sends each key once
+                    raise Refused("batch", f"a batch of more than 3 items of {source[:80]!r}")
                 self._checked(self._on_item, item)
         except Refused as exc:
             self.refusals.refuse(exc.kind, str(exc))
