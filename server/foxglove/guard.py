@@ -18,8 +18,10 @@ its own (the ``websockets`` library) relaying messages both ways:
   viewer; control messages (text) are always written. A client that has
   taken nothing for ``flood.SEND_TIMEOUT_S``, or for which more than
   ``flood.MAX_QUEUED_BYTES`` wait, is closed. So a client costs at most
-  WRITE_BELOW bytes and the one message written last (the meshes: about
-  1.3 MB for the demo cell), however long it does not read.
+  WRITE_BELOW bytes and the one message written last, however long it does
+  not read;
+* ``/scene`` (the meshes, the one large message) is sent by the guard itself,
+  to the subscribing client alone, from one copy shared by all (``scene``).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from websockets.typing import Subprotocol
 from .. import flood
 from ..access import Access, token_given
 from ..flood import MAX_QUEUED_BYTES, MESSAGES_PER_S, SEND_TIMEOUT_S, MessageBudget
+from .scene import SceneBytes, Subscriptions, send_scene
 
 log = logging.getLogger(__name__)
 
@@ -99,8 +102,15 @@ def _one(headers: Headers, name: str) -> str | None:
 class Guard:
     """Listens on ``host:port`` and relays the clients it admits to ``127.0.0.1:upstream``."""
 
-    def __init__(self, access: Access, upstream_port: int, max_clients: int) -> None:
+    def __init__(
+        self,
+        access: Access,
+        upstream_port: int,
+        max_clients: int,
+        scene: SceneBytes | None = None,
+    ) -> None:
         self.access = access
+        self.scene = scene
         self.upstream_port = upstream_port
         self.max_clients = max_clients
         self.clients = 0
@@ -183,11 +193,14 @@ class Guard:
 
     async def _both_ways(self, client: ServerConnection, upstream: ClientConnection) -> None:
         """Copy messages until either side closes; a client that does not read is closed."""
+        subscriptions = Subscriptions()
 
         async def down() -> None:
             loop = asyncio.get_running_loop()
             taken_at = loop.time()
             async for message in upstream:
+                if isinstance(message, str):
+                    subscriptions.server_said(message)
                 waiting = client.transport.get_write_buffer_size()
                 if isinstance(message, bytes) and waiting >= WRITE_BELOW:
                     self.dropped += 1
@@ -207,6 +220,9 @@ class Guard:
         async def up() -> None:
             async for message in client:
                 await upstream.send(message)
+                if isinstance(message, str) and self.scene is not None:
+                    for subscription in subscriptions.client_asked(message):
+                        await self._send_scene(client, subscription)
 
         tasks = [asyncio.create_task(down()), asyncio.create_task(up())]
         try:
@@ -217,6 +233,16 @@ class Guard:
             for task in tasks:
                 with contextlib.suppress(asyncio.CancelledError, ConnectionClosed):
                     await task
+
+    async def _send_scene(self, client: ServerConnection, subscription: int) -> None:
+        assert self.scene is not None
+        scene = await self.scene()
+        if scene is None:
+            return
+        try:
+            await send_scene(client, subscription, scene, WRITE_BELOW, SEND_TIMEOUT_S)
+        except TimeoutError:
+            _closed_for_not_reading(client)
 
 
 def _closed_for_not_reading(client: ServerConnection) -> None:

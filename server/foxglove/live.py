@@ -4,9 +4,11 @@ The same channels as a recording (``/tf``, ``/scene``, ``/log``,
 ``/<robot>/joints``), taken from the histories every DRAIN_S and encoded in
 a worker thread, only while a client subscribes. A client that subscribes to
 ``/scene`` or ``/tf`` gets the meshes and the base frames again, since the SDK
-keeps no message for late joiners: encoded once per cell (in a worker
-thread) and sent again at most every RESEND_MIN_S, however often clients
-subscribe. Clients reach the SDK's server only through the ``guard``.
+keeps no message for late joiners. Both are encoded once per cell (in a
+worker thread); the meshes are sent by the ``guard`` to the subscribing
+client alone (``scene``), the base frames logged again at most every
+RESEND_MIN_S, however often clients subscribe. Clients reach the SDK's
+server only through the ``guard``.
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ from ..history import History, HistoryReader
 from ..recording.encode import Encoded, encode_batch
 from ..recording.messages import (
     LOG_TOPIC,
-    SCENE_TOPIC,
     SCHEMAS,
     TF_TOPIC,
     RobotFrames,
@@ -45,11 +46,11 @@ NAME = "linkview"
 BACKLOG = 64
 """Messages the SDK's server keeps for a client that reads slowly (it drops the oldest)."""
 RESEND_MIN_S = 5.0
-"""The meshes and base frames go out again at most this often (each subscribe asks for them)."""
+"""The base frames go out again at most this often (each subscribe to /tf asks for them)."""
 
 
 class _Listener(ServerListener):
-    """Counts subscriptions; notes when the meshes and base frames must be sent again."""
+    """Counts subscriptions; notes when the base frames must be sent again."""
 
     def __init__(self) -> None:
         self.subscriptions = 0
@@ -57,7 +58,7 @@ class _Listener(ServerListener):
 
     def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self.subscriptions += 1
-        if channel.topic in (SCENE_TOPIC, TF_TOPIC):
+        if channel.topic == TF_TOPIC:
             self.resend = True
 
     def on_unsubscribe(self, client: Client, channel: ChannelView) -> None:
@@ -92,6 +93,7 @@ class FoxgloveEndpoint:
         self._cell: Cell | None = None
         self._scene: tuple[bytes, bytes] | None = None
         """The cell's meshes and base frames, encoded."""
+        self._encoding = asyncio.Lock()
         self._resent_at = -RESEND_MIN_S
         self._frames: dict[str, RobotFrames] = {}
         self._channels: dict[str, foxglove.Channel] = {}
@@ -106,7 +108,7 @@ class FoxgloveEndpoint:
             server_listener=self.listener,
             message_backlog_size=BACKLOG,
         )
-        self.guard = Guard(self.access, self.server.port, self.max_clients)
+        self.guard = Guard(self.access, self.server.port, self.max_clients, self.scene)
         self.port = await self.guard.start(self.host, self.port)
         log.info("foxglove: serving ws://%s:%d", self.host, self.port)
         return self.port
@@ -158,24 +160,32 @@ class FoxgloveEndpoint:
         self._frames = {r.name: RobotFrames(r) for r in cell.robots}
         self.listener.resend = True
 
-    async def _cell_messages(self, cell: Cell, now: float) -> list[Encoded]:
-        """The meshes and base frames, encoded the first time they are asked for per cell.
+    async def scene(self) -> bytes | None:
+        """The running cell's meshes, encoded (None before the first drain)."""
+        encoded = await self._encoded()
+        return None if encoded is None else encoded[0]
 
-        Stamped with the time of that first encoding: never younger than a
-        sample sent after it, so the base frames hold for every later sample;
-        logged at ``now`` (the first sample of the drain they go out with).
-        """
-        if self._scene is None:
-            robots = list(cell.robots)
-            scene, bases = await asyncio.to_thread(
-                lambda: (scene_update(robots, now), base_transforms(robots, now))
-            )
-            self.scene_encodings += 1
-            if cell is not self._cell:  # reloaded meanwhile: the next drain encodes the new one
-                return []
-            self._scene = (scene, bases)
-        scene, bases = self._scene
-        return [(SCENE_TOPIC, nanoseconds(now), scene), (TF_TOPIC, nanoseconds(now), bases)]
+    async def _cell_messages(self, cell: Cell, now: float) -> list[Encoded]:
+        """The base frames, logged at ``now`` (the first sample of the drain they go with)."""
+        encoded = await self._encoded()
+        return [] if encoded is None else [(TF_TOPIC, nanoseconds(now), encoded[1])]
+
+    async def _encoded(self) -> tuple[bytes, bytes] | None:
+        """The meshes and base frames of the cell advertised, encoded the first time they are
+        asked for (in a worker thread) and stamped then: never younger than a sample sent
+        after, so the base frames hold for every later one."""
+        async with self._encoding:  # 40 clients subscribing at once: one encoding
+            cell = self._cell
+            if self._scene is None and cell is not None:
+                robots, now = list(cell.robots), time.time()
+                scene, bases = await asyncio.to_thread(
+                    lambda: (scene_update(robots, now), base_transforms(robots, now))
+                )
+                self.scene_encodings += 1
+                if cell is self._cell:  # else reloaded meanwhile: encoded again when asked
+                    self._scene = (scene, bases)
+                return scene, bases
+            return self._scene
 
     def _log(self, messages: list[Encoded]) -> None:
         for topic, log_time, data in messages:
