@@ -35,8 +35,12 @@ MAX_RECORD_BYTES = 64 << 20
 """One record as stored (our chunks are about 1 MiB compressed; the cell file is attached)."""
 MAX_CHUNK_BYTES = 64 << 20
 """One chunk decompressed (our writer's are 1 MiB: ``writer.CHUNK_BYTES``)."""
-MESSAGE_HEADER = 22
+RECORD = struct.Struct("<BQ")
+"""A record's opcode and length."""
+MESSAGE_HEAD = struct.Struct("<HIQQ")
 """Channel id, sequence, log time, publish time: a message record's bytes before its data."""
+SKIPPED = frozenset({Opcode.MESSAGE_INDEX, Opcode.CHUNK_INDEX, Opcode.STATISTICS})
+"""Index records: a stream reader has no use for them, and parsing them costs."""
 
 
 class TooLarge(ValueError):
@@ -64,6 +68,17 @@ class _Bounded:
         return data
 
 
+class _Records(StreamReader):
+    """mcap's stream reader, skipping the index records unparsed."""
+
+    def _read_record(self, opcode: int, length: int) -> McapRecord | None:
+        if opcode in SKIPPED:
+            self._stream.read(length)
+            return None
+        record: McapRecord | None = super()._read_record(opcode, length)
+        return record
+
+
 class Stream:
     """The channels and messages of an MCAP file, in file order, chunks opened one at a time."""
 
@@ -84,7 +99,7 @@ class Stream:
             # No limit of its own: a record that claims to run past the end is a cut (foxglove-sdk
             # writes a chunk's length once it is done: 2^64 - 1 until then), one over
             # MAX_RECORD_BYTES within the file is refused; ``_Bounded`` tells which.
-            reader = StreamReader(
+            reader = _Records(
                 source,  # type: ignore[arg-type]  # it only calls read()
                 emit_chunks=True,
                 record_size_limit=None,
@@ -120,27 +135,37 @@ def _reason(exc: BaseException) -> str:
 
 
 def _chunk_records(chunk: Chunk) -> Iterator[Channel | Message]:
-    """The channels and messages of one chunk (mcap's ``breakup_chunk``, with bounds)."""
+    """The channels and messages of one chunk (mcap's ``breakup_chunk``, with bounds).
+
+    Message records are taken apart with one struct read each rather than
+    through ``Message.read``'s five stream reads: a million of them is most of
+    what a long replay costs to load.
+    """
     data = _decompress(chunk)
-    stream = ReadDataStream(io.BytesIO(data))
-    end = len(data)
-    try:
-        while stream.count < end:
-            opcode = stream.read1()
-            length = stream.read8()
-            start = stream.count
-            if length > end - start:
-                raise _Cut(f"a record of {length} bytes runs past its chunk")
-            if opcode == Opcode.CHANNEL:
-                yield Channel.read(stream)
-            elif opcode == Opcode.MESSAGE and length >= MESSAGE_HEADER:
-                yield Message.read(stream, length)
-            used = stream.count - start
-            if used > length:
-                raise _Cut(f"a record of {length} bytes holds {used}")
-            stream.read(length - used)
-    except (EndOfFile, struct.error, UnicodeDecodeError) as exc:
-        raise _Cut(f"a garbled record: {_reason(exc)}") from None
+    at, end = 0, len(data)
+    while at < end:
+        if end - at < RECORD.size:
+            raise _Cut("a record's header runs past its chunk")
+        opcode, length = RECORD.unpack_from(data, at)
+        at += RECORD.size
+        if length > end - at:
+            raise _Cut(f"a record of {length} bytes runs past its chunk")
+        if opcode == Opcode.MESSAGE and length >= MESSAGE_HEAD.size:
+            channel, sequence, log_time, publish_time = MESSAGE_HEAD.unpack_from(data, at)
+            body = data[at + MESSAGE_HEAD.size : at + length]
+            yield Message(
+                channel_id=channel,
+                log_time=log_time,
+                data=body,
+                publish_time=publish_time,
+                sequence=sequence,
+            )
+        elif opcode == Opcode.CHANNEL:
+            try:
+                yield Channel.read(ReadDataStream(io.BytesIO(data[at : at + length])))
+            except (EndOfFile, struct.error, UnicodeDecodeError) as exc:
+                raise _Cut(f"a garbled channel record: {_reason(exc)}") from None
+        at += length
 
 
 def _decompress(chunk: Chunk) -> bytes:
