@@ -1,4 +1,5 @@
-"""``GET /api/history``: the timeline's range and marks, windows of samples, and recordings.
+"""``GET /api/history``: the timeline's range and marks, windows of samples;
+``POST /api/history/recording``: the last minutes saved as an MCAP file.
 
 Windows are computed in a worker thread from the source's history (poses by
 the batch kinematics); the live stream and other viewers are not involved.
