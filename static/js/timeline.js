@@ -115,10 +115,10 @@ class Timeline {
 			if ( saved.ok ) {
 
 				const url = URL.createObjectURL( saved.blob );
-				const link = el( 'a', { href: url, download: saved.name } );
-				document.body.append( link );
-				link.click();
-				link.remove();
+				const anchor = el( 'a', { href: url, download: saved.name } );
+				document.body.append( anchor );
+				anchor.click();
+				anchor.remove();
 				setTimeout( () => URL.revokeObjectURL( url ), 60000 );
 				this.saveState.textContent = '';
 
