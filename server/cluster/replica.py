@@ -175,10 +175,10 @@ class Replica(Runtime):
                 raise MoveError(503, f"the worker following {robot.source} has gone")
             async with asyncio.timeout(COMMAND_TIMEOUT_S):
                 status, detail = await answer
+        except TimeoutError:  # before OSError, of which it is one
+            raise MoveError(504, f"the worker following {robot.source} did not answer") from None
         except (RedisError, OSError) as exc:
             raise MoveError(503, f"message broker unreachable: {exc}") from exc
-        except TimeoutError:
-            raise MoveError(504, f"the worker following {robot.source} did not answer") from None
         finally:
             self._replies.pop(ident, None)
         if status != 202:
