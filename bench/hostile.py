@@ -374,7 +374,7 @@ def replay_rows(quick: bool, folder: Path) -> list[list[str]]:
         ("zstd bomb: 2 M messages in 27 KB", bomb),
         ("a chunk claiming 1 MiB, holding 300 MB", liar),
         (
-            f"{100_000 if quick else 1_000_000} samples of one robot",
+            f"{100_000 if quick else 1_000_000} samples of one robot, zstd chunks",
             lambda: samples(100_000 if quick else 1_000_000),
         ),
     ]
@@ -428,8 +428,8 @@ def network_attacks(rounds: int, quick: bool) -> None:
             rows,
         )
         + "\n\nRecordings loaded for replay (`load_source`, in this process): file size in MB, "
-        "seconds to load, the most memory Python traced meanwhile (MiB; numpy's arrays "
-        "included), and what came of it.\n\n"
+        "seconds to load (with tracemalloc on, which slows it), the most memory Python traced "
+        "meanwhile (MiB; numpy's arrays included), and what came of it.\n\n"
         + markdown_table(["recording", "MB", "s", "traced MiB", "outcome"], files)
     )
     publish(NETWORK, "Hostile Redis writers, Foxglove clients, exports and recordings", body)
