@@ -11,12 +11,22 @@ tests assert only a generous share of the quiet rate; the figures, and issue
 20's mark (another viewer keeps 45 of 50 frames/s, memory grows by 20 MB at
 most), belong here.
 
-Usage: ``python bench/hostile.py [--rounds 3 | --quick]``; writes docs/benchmarks.md.
+With ``--network`` (or ``--all``) it runs issue 34's attacks on what the
+server reads from elsewhere instead, each section of its own
+(``network_attacks``): Foxglove clients (tests/e2e/test_foxglove_limits.py),
+six concurrent exports of ten minutes of history (tests/e2e/test_export.py),
+forged records, keys and moves on a cluster's Redis (a real redis-server, a
+worker and a replica; tests/cluster/test_hostile_redis.py), and hostile
+recordings loaded for replay (tests/recording/test_hostile_recordings.py).
+
+Usage: ``python bench/hostile.py [--rounds 3 | --quick] [--network | --all]``; writes
+docs/benchmarks.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import os
 import statistics
 import sys
@@ -24,6 +34,7 @@ import tempfile
 import threading
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -105,33 +116,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--rounds", type=int, default=3, help="times each attack runs")
     parser.add_argument("--quick", action="store_true", help="one round")
+    parser.add_argument(
+        "--network", action="store_true", help="only the Redis, Foxglove, export, replay attacks"
+    )
+    parser.add_argument("--all", action="store_true", help="the clients' and the network's")
     args = parser.parse_args()
     rounds = 1 if args.quick else args.rounds
-    rows = []
+    if args.network or args.all:
+        network_attacks(rounds, args.quick)
+        if not args.all:
+            return
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp, limits.limits_server(Path(tmp) / "log") as server:
         quiet = server.quiet_fps
-        for name, attack in ATTACKS:
-            runs = [measure(server, attack) for _ in range(rounds)]
-            rates = [r[0] for r in runs]
-            peak = max(r[1] for r in runs)
-            left = max(r[2] for r in runs)
-            notes = "; ".join(sorted({r[3] for r in runs if r[3]}))
-            fps = statistics.median(rates)
-            meets = min(rates) >= MARK_FPS * quiet and peak <= MARK_MIB
-            rows.append(
-                [
-                    name,
-                    f"{fps:.1f}",
-                    f"{min(rates):.1f}",
-                    f"{fps / quiet:.2f}",
-                    f"{peak:+.1f}",
-                    f"{left:+.1f}",
-                    "yes" if meets else "no",
-                    notes,
-                ]
-            )
-            print(rows[-1], flush=True)
+        rows = attack_rows(server, ATTACKS, rounds)
     load = ", ".join(f"{x:.1f}" for x in load_before)
     body = (
         f"A protocol-2 viewer's frames messages per second during each attack (median and worst "
@@ -158,6 +156,283 @@ def main() -> None:
         )
     )
     publish("bench/hostile.py", "Hostile clients: a viewer's frame rate, the server's memory", body)
+
+
+# -- issue 34: what the server reads from elsewhere (Redis, Foxglove clients, exports, files) --
+
+NETWORK = "bench/hostile.py --network"
+REDIS_SOURCES = 4
+
+
+def attack_rows(
+    server: limits.Server, attacks: list[tuple[str, Callable[[limits.Server], None]]], rounds: int
+) -> list[list[str]]:
+    """``main``'s row for each attack on ``server``: rates, memory, the mark, the notes."""
+    rows = []
+    quiet = server.quiet_fps
+    for name, attack in attacks:
+        runs = [measure(server, attack) for _ in range(rounds)]
+        rows.append(row(name, [r[0] for r in runs], quiet, runs))
+        print(rows[-1], flush=True)
+    return rows
+
+
+def row(
+    name: str, rates: list[float], quiet: float, runs: list[tuple[float, float, float, str]]
+) -> list[str]:
+    peak, left = max(r[1] for r in runs), max(r[2] for r in runs)
+    notes = "; ".join(sorted({r[3] for r in runs if r[3]}))
+    fps = statistics.median(rates)
+    meets = min(rates) >= MARK_FPS * quiet and peak <= MARK_MIB
+    return [
+        name,
+        f"{fps:.1f}",
+        f"{min(rates):.1f}",
+        f"{fps / quiet:.2f}",
+        f"{peak:+.1f}",
+        f"{left:+.1f}",
+        "yes" if meets else "no",
+        notes,
+    ]
+
+
+def _run(coroutine: Any) -> None:
+    asyncio.run(coroutine)
+
+
+def foxglove_rows(rounds: int, folder: Path) -> list[list[str]]:
+    """The Foxglove endpoint's attacks, on a server with ``--foxglove`` (token set)."""
+    from tests.conftest import free_port
+    from tests.e2e import test_foxglove_limits as fox
+
+    port = free_port()
+    with limits.limits_server(folder / "fox.log", "--foxglove", str(port)) as server:
+        target = fox.Fox(server, port)
+        attacks: list[tuple[str, Callable[[limits.Server], None]]] = [
+            (
+                "Foxglove: foreign, null Origin, Host evil.example, no token",
+                lambda _: _run(
+                    fox.test_foreign_origins_hosts_and_missing_tokens_are_refused(target)
+                ),
+            ),
+            (
+                "Foxglove: message flood",
+                lambda _: _run(fox.test_a_message_flood_closes_that_client_with_1008(target)),
+            ),
+            (
+                "Foxglove: 40 subscribers never reading, toggling /scene",
+                lambda _: _run(
+                    fox.test_subscribers_that_never_read_are_closed_and_their_memory_freed(target)
+                ),
+            ),
+        ]
+        return attack_rows(server, attacks, rounds)
+
+
+def export_rows(rounds: int, folder: Path) -> list[list[str]]:
+    """Six concurrent exports of ten minutes of history, and a cross-site one."""
+    from server.paths import DEMO_CELL
+    from tests.e2e import test_export as export
+
+    recording = export.ten_minutes_ending_now(folder / "ten.mcap")
+    args = ("--replay", str(recording), "--cell", str(DEMO_CELL))
+    with limits.limits_server(folder / "export.log", *args) as server:
+        attacks: list[tuple[str, Callable[[limits.Server], None]]] = [
+            (
+                "6 concurrent exports of 10 min",
+                lambda s: export.test_six_at_once_one_is_saved_the_others_told_when_to_come_back(
+                    s, folder
+                ),
+            ),
+            ("export from another site", export.test_a_page_on_another_site_cannot_start_one),
+        ]
+        return attack_rows(server, attacks, rounds)
+
+
+def redis_rows(rounds: int, folder: Path) -> list[list[str]]:
+    """Forged records, keys and moves on a cluster's Redis, a viewer on the replica."""
+    from tests.cluster import _roles as roles
+    from tests.cluster import test_hostile_redis as forge
+    from tests.conftest import free_port
+
+    redis_server = roles.RedisServer(folder / "redis", free_port())
+    redis_server.start()
+    cell = folder / "cell" / "cell.toml"
+    cell.parent.mkdir()
+    cell.write_text(roles.cell_text(REDIS_SOURCES))
+    cluster = roles.Cluster(folder, redis_server.url, cell)
+    try:
+        worker, replica = cluster.worker("w"), cluster.replica("r")
+        asyncio.run(roles.wait_for(replica, roles.all_live))
+        quiet = forge.rate(asyncio.run(roles.watch(replica.base, 3.0)), 3.0)
+        holder = str(roles.holders(redis_server, [f"s{i}" for i in range(REDIS_SOURCES)])["s0"])
+        records = [
+            forge.forged([("status:s0", forge.status_record("s0", state=None), None)]),
+            forge.forged([("status:s1", forge.status_record("s1", robots=[]), None)]),
+            forge.forged([("frames2:s2", b"\x01\x02" + bytes(40), 2)]),
+        ]
+        keys = [
+            forge.forged([(f"k{n}-{k}:s0", b"x" * 16, None) for k in range(10)])
+            for n in range(20_000)
+        ]
+        attacks: list[tuple[str, roles.Role, Callable[[], None]]] = [
+            (
+                "Redis: 30 000 forged status records and frames",
+                replica,
+                lambda: forge.publish(redis_server, records * 10_000),
+            ),
+            ("Redis: 200 000 forged keys", replica, lambda: forge.publish(redis_server, keys)),
+            (
+                "Redis: 30 000 published moves (worker's memory)",
+                worker,
+                lambda: forge.flood_moves(redis_server, holder, 30_000),
+            ),
+        ]
+        rows = []
+        for name, role, attack in attacks:
+            runs = [_cluster_round(replica, role, attack) for _ in range(rounds)]
+            held = roles.holders(redis_server, [f"s{i}" for i in range(REDIS_SOURCES)])["s0"]
+            lease = "" if held == holder else "lease lost"
+            runs = [(fps, peak, left, note or lease) for fps, peak, left, note in runs]
+            rows.append(row(name, [r[0] for r in runs], quiet, runs))
+            print(rows[-1], flush=True)
+        return rows
+    finally:
+        cluster.close()
+        redis_server.stop()
+
+
+def _cluster_round(
+    replica: Any, role: Any, attack: Callable[[], None]
+) -> tuple[float, float, float, str]:
+    """A viewer's rate on ``replica`` while ``attack`` runs, and ``role``'s memory."""
+    from tests.cluster import _roles as roles
+
+    seconds = 6.0
+    before = role.rss_mib()
+    peak = [before]
+    done = threading.Event()
+
+    def sample() -> None:
+        while not done.wait(SAMPLE_S):
+            peak[0] = max(peak[0], role.rss_mib())
+
+    sampler = threading.Thread(target=sample, daemon=True)
+    sampler.start()
+
+    async def watched() -> float:
+        viewer = asyncio.create_task(roles.watch(replica.base, seconds))
+        await asyncio.to_thread(attack)
+        seen = await viewer
+        return len(seen.frames) / seconds / REDIS_SOURCES
+
+    try:
+        fps = asyncio.run(watched())
+    finally:
+        done.set()
+        sampler.join()
+    return fps, peak[0] - before, role.rss_mib() - before, ""
+
+
+def replay_rows(quick: bool, folder: Path) -> list[list[str]]:
+    """Hostile recordings loaded for replay: the outcome, the time, the memory traced."""
+    import time
+    import tracemalloc
+
+    from server.ctrlx import DataLayerError
+    from server.recording import load_source
+    from tests.recording import test_hostile_recordings as files
+
+    def bomb() -> Path:
+        compressed, size = files.bomb(2_000_000)
+        return files.mcap_file(folder / "bomb.mcap", [files.chunk_record(compressed, size)])
+
+    def liar() -> Path:
+        compressed, _ = files.bomb(2_000_000)
+        return files.mcap_file(folder / "liar.mcap", [files.chunk_record(compressed, 1 << 20)])
+
+    def samples(count: int) -> Path:
+        """A recording as the recorder writes one: zstd chunks, indexed (mcap's writer)."""
+        from mcap.writer import Writer
+
+        path = folder / f"{count}.mcap"
+        with path.open("wb") as f:
+            writer = Writer(f)
+            writer.start()
+            channel = writer.register_channel(files.KIN12, "json", schema_id=0)
+            for n in range(1, count + 1):
+                stamp = int((1000.0 + 0.02 * n) * 1e9)
+                writer.add_message(channel, stamp, files.joints(n, stamp / 1e9), stamp)
+            writer.finish()
+        return path
+
+    def stalled() -> Path:
+        records = [files.message_record(files.joints(n, 1000.0)) for n in range(1, 501)]
+        return files.mcap_file(folder / "stalled.mcap", records)
+
+    cases = [
+        ("zstd bomb: 2 M messages in 27 KB", bomb),
+        ("a chunk claiming 1 MiB, holding 300 MB", liar),
+        (
+            f"{100_000 if quick else 1_000_000} samples of one robot, zstd chunks",
+            lambda: samples(100_000 if quick else 1_000_000),
+        ),
+    ]
+    rows = []
+    for name, make in cases:
+        path = make()
+        tracemalloc.start()
+        start = time.perf_counter()
+        try:
+            source = load_source(path, "demo", files.ROBOTS)
+            outcome = f"{len(source.t)} samples; {source.warning or 'nothing left out'}"
+        except DataLayerError as exc:
+            outcome = f"refused: {str(exc).split(': ', 1)[1]}"
+        elapsed = time.perf_counter() - start
+        _, peak = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        size = f"{path.stat().st_size / 1e6:.2f}"
+        rows.append([name, size, f"{elapsed:.2f}", f"{peak / 2**20:.1f}", outcome])
+        print(rows[-1], flush=True)
+    played = asyncio.run(files.samples_in(stalled(), 1.0))
+    outcome = f"{len(played)} samples played in 1 s"
+    rows.append(["a clock that never advances (500 samples)", "", "1.00", "", outcome])
+    return rows
+
+
+def network_attacks(rounds: int, quick: bool) -> None:
+    """Issue 34's attacks, one section: the viewer's rate and memory, and the recordings."""
+    load_before = os.getloadavg()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        rows = []
+        for name, run in (("fox", foxglove_rows), ("export", export_rows), ("redis", redis_rows)):
+            (folder / name).mkdir()
+            rows += run(rounds, folder / name)
+        (folder / "replay").mkdir()
+        files = replay_rows(quick, folder / "replay")
+    load = ", ".join(f"{x:.1f}" for x in load_before)
+    body = (
+        f"Issue 34's attacks on what the server reads from elsewhere (median and worst of "
+        f"{rounds} rounds). Foxglove and exports: against one `python -m server` process with "
+        "the viewer token (exports: replaying ten minutes of the demo cell that end now, so "
+        "its history is a full one), a protocol-2 viewer reading `/ws` throughout, server "
+        "RSS in MiB sampled every 20 ms; the 40 Foxglove subscribers are closed by the 10 s "
+        "rule, so that round lasts about 15 s. Redis: a real redis-server, one worker and one "
+        f"replica for {REDIS_SOURCES} embedded mocks, a viewer on the replica for 6 s from the "
+        "start of each attack; RSS of the replica (records, keys) or of the worker (moves). "
+        f"*Mark*: issue 20's, 45/50 of the quiet rate and at most 20 MB. Load average before "
+        f"the run {load} (2 shared cores).\n\n"
+        + markdown_table(
+            ["attack", "frames/s", "worst", "share of quiet", "RSS peak", "RSS after", "mark", ""],
+            rows,
+        )
+        + "\n\nRecordings loaded for replay (`load_source`, in this process): file size in MB, "
+        "seconds to load (with tracemalloc on, which slows it), the most memory Python traced "
+        "meanwhile (MiB; numpy's arrays included), and what came of it.\n\n"
+        + markdown_table(["recording", "MB", "s", "traced MiB", "outcome"], files)
+    )
+    publish(NETWORK, "Hostile Redis writers, Foxglove clients, exports and recordings", body)
 
 
 if __name__ == "__main__":

@@ -229,29 +229,73 @@ class Frames2:
     robots: list[RobotFrame2]
 
 
-def decode_frames(data: bytes) -> Frames2:
-    """Decode a protocol-2 frames message; raises ValueError if it is not one."""
+def frames_layout(data: bytes) -> tuple[int, int, float, float, list[RobotLayout]]:
+    """Where each robot's part of a protocol-2 frames message lies; ValueError if not one.
+
+    Returns seq, robot count, t_source, t_sent and each robot's layout; it reads
+    only the headers, so checking a message that arrived from elsewhere (a
+    cluster's broker) costs a few struct reads per robot.
+    """
     if len(data) < FRAMES_HEADER.size:
         raise ValueError(f"{len(data)} bytes is shorter than the frames header")
     kind, version, count, seq, t_source, t_sent = FRAMES_HEADER.unpack_from(data, 0)
     if (kind, version) != (FRAMES_KIND, FRAMES_VERSION):
         raise ValueError(f"not a protocol-2 frames message (kind {kind}, version {version})")
-    at, robots = FRAMES_HEADER.size, []
+    at, robots = FRAMES_HEADER.size, list[RobotLayout]()
     for _ in range(count):
+        if at + ROBOT_HEADER.size > len(data):
+            raise ValueError(f"{count} robots announced, the message ends after {len(robots)}")
         index, flags, n_joints, n_links, n_error = ROBOT_HEADER.unpack_from(data, at)
-        at += ROBOT_HEADER.size
-        joints, links, tcp = _pose_floats(data, at, n_joints, n_links)
-        at += 4 * (n_joints + 7 * n_links + 7)
-        error = data[at : at + n_error].decode("utf-8") if n_error else None
-        at += n_error
+        robot = RobotLayout(index, flags, n_joints, n_links, n_error, at + ROBOT_HEADER.size)
+        at = robot.end
+        if at > len(data):
+            raise ValueError(f"robot {index}'s part runs past the end of the message")
+        robots.append(robot)
+    if at != len(data):
+        raise ValueError(f"{len(data) - at} bytes left over after {count} robots")
+    return seq, count, t_source, t_sent, robots
+
+
+@dataclass(frozen=True)
+class RobotLayout:
+    """One robot's header in a protocol-2 frames message, and where its floats begin."""
+
+    robot_index: int
+    flags: int
+    joint_count: int
+    link_count: int
+    error_bytes: int
+    at: int
+
+    @property
+    def pose_bytes(self) -> int:
+        """Bytes of one pose: joints, links and TCP as float32."""
+        return 4 * (self.joint_count + 7 * self.link_count + 7)
+
+    @property
+    def end(self) -> int:
+        """Where the next robot's header begins."""
+        setpoint = self.pose_bytes if self.flags & FLAG_SETPOINT else 0
+        return self.at + self.pose_bytes + self.error_bytes + setpoint
+
+
+def decode_frames(data: bytes) -> Frames2:
+    """Decode a protocol-2 frames message; raises ValueError if it is not one."""
+    seq, _, t_source, t_sent, layout = frames_layout(data)
+    robots = []
+    for part in layout:
+        at = part.at
+        joints, links, tcp = _pose_floats(data, at, part.joint_count, part.link_count)
+        at += part.pose_bytes
+        error = data[at : at + part.error_bytes].decode("utf-8") if part.error_bytes else None
+        at += part.error_bytes
         setpoint = None
-        if flags & FLAG_SETPOINT:
-            setpoint = Setpoint2(*_pose_floats(data, at, n_joints, n_links))
-            at += 4 * (n_joints + 7 * n_links + 7)
+        if part.flags & FLAG_SETPOINT:
+            setpoint = Setpoint2(*_pose_floats(data, at, part.joint_count, part.link_count))
         robots.append(
             RobotFrame2(
-                robot_index=index,
-                ok=bool(flags & FLAG_OK),
+                robot_index=part.robot_index,
+                ok=bool(part.flags & FLAG_OK),
                 joints=joints,
                 links=links,
                 tcp=tcp,
@@ -259,8 +303,6 @@ def decode_frames(data: bytes) -> Frames2:
                 setpoint=setpoint,
             )
         )
-    if at != len(data):
-        raise ValueError(f"{len(data) - at} bytes left over after {count} robots")
     return Frames2(seq, t_source, t_sent, robots)
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import secrets
 import socket
 import time
@@ -106,9 +107,15 @@ def connect(url: str, password: str | None, timeout_s: float) -> Redis:
     )
 
 
-def text(value: bytes | str) -> str:
-    """A value read from Redis (bytes, as this client does not decode) as text."""
-    return value.decode() if isinstance(value, bytes) else value
+MEMBER = re.compile(r"[A-Za-z0-9._-]{1,200}")
+"""What ``member_id`` makes: a channel name is built from it, health shows it."""
+
+
+def member_of(value: bytes | str | None) -> str | None:
+    """A member id read from Redis (a lease's holder), None if absent or not shaped like one."""
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", "replace")
+    return value if value is not None and MEMBER.fullmatch(value) else None
 
 
 def describe(exc: BaseException) -> str:

@@ -10,6 +10,11 @@ a viewer may reconnect to any of them and carry on.
 Each source's state is judged on the replica's own clock from the frames
 it receives, so a source whose worker died shows as stale here, and every
 source shows the broker's error while the broker is unreachable.
+
+What arrives from the broker is checked before use (``inbound``): anything
+no worker of this cell would publish is counted, dropped and logged at most
+once a minute. The listener and the other tasks are ``supervised``: a task
+that fails is logged and started again.
 """
 
 from __future__ import annotations
@@ -19,16 +24,18 @@ import contextlib
 import hashlib
 import logging
 import time
+from collections import Counter
+from collections.abc import Callable
 from typing import Any
 
-import numpy as np
 import orjson
 from redis.asyncio import Redis
 from redis.exceptions import RedisError
 
 from ..cell import Cell, Robot
+from ..logs import Throttled
 from ..runtime import MoveError, Runtime, SourceDefaults, may_command, move_target
-from ..stream import Message, RobotHealth, SourceHealth
+from ..stream import Message, SourceHealth
 from . import envelope
 from .broker import (
     FRAMES,
@@ -42,9 +49,11 @@ from .broker import (
     health_key,
     lease_key,
     member_id,
+    member_of,
     reply_channel,
-    text,
 )
+from .inbound import ITEMS_PER_SOURCE, Inbound, Refused, answer_of
+from .supervise import supervised
 
 log = logging.getLogger(__name__)
 
@@ -65,17 +74,6 @@ def session_of(cell: Cell) -> str:
     return hashlib.sha256(orjson.dumps(infos)).hexdigest()[:16]
 
 
-def robot_health(record: dict[str, Any]) -> RobotHealth:
-    """A robot's health as a worker's status record has it."""
-    values = record["values"]
-    return RobotHealth(
-        ok=bool(record["ok"]),
-        error=record["error"],
-        frames=int(record["frames"]),
-        values=None if values is None else np.asarray(values, dtype=np.float64),
-    )
-
-
 class Replica(Runtime):
     """A Runtime without sources: its hub is fed from the broker."""
 
@@ -91,6 +89,11 @@ class Replica(Runtime):
         """Per source: the state and time of the last status sent to viewers."""
         self._replies: dict[str, asyncio.Future[tuple[int, str]]] = {}
         self._tasks: list[asyncio.Task[None]] = []
+        self.inbound = Inbound(cell)
+        self.refusals = Throttled(log, f"replica {self.id}: from the message broker")
+        """What was read from the broker and dropped, by kind."""
+        self.restarts: dict[str, int] = {}
+        """Supervised tasks started again after they failed, by name."""
 
     @classmethod
     async def open(cls, cell: Cell, defaults: SourceDefaults, broker: BrokerSettings) -> Replica:
@@ -98,9 +101,9 @@ class Replica(Runtime):
         replica = cls(cell, defaults, broker)
         await replica.apply(cell)
         replica._tasks = [
-            asyncio.create_task(replica._listen(), name="broker:listen"),
-            asyncio.create_task(replica._watch(), name="broker:watch"),
-            asyncio.create_task(replica._poll(), name="broker:poll"),
+            supervised("broker:listen", replica._listen, replica.restarts),
+            supervised("broker:watch", replica._watch, replica.restarts),
+            supervised("broker:poll", replica._poll, replica.restarts),
         ]
         return replica
 
@@ -117,6 +120,7 @@ class Replica(Runtime):
             kept.period_s = source.period_s or self.defaults.period_s
             health[source.name] = kept
         self._health = health
+        self.inbound = Inbound(cell)
         self.cell, self.cell_error = cell, None
         self.session = session_of(cell)
         self.hub.restart()
@@ -142,7 +146,14 @@ class Replica(Runtime):
 
     def report(self) -> dict[str, object]:
         """The broker's state, and which worker follows each source."""
-        return {"broker": {**self.broker.report(), "workers": dict(self.holders)}}
+        return {
+            "broker": {
+                **self.broker.report(),
+                "workers": dict(self.holders),
+                **self.refusals.report(),
+                "restarts": dict(self.restarts),
+            }
+        }
 
     async def move(self, robot: Robot, q: list[float]) -> None:
         """Route the move to the worker that holds ``robot``'s source; its answer is ours."""
@@ -156,18 +167,18 @@ class Replica(Runtime):
         answer: asyncio.Future[tuple[int, str]] = asyncio.get_running_loop().create_future()
         self._replies[ident] = answer
         try:
-            holder = await self.redis.get(lease_key(robot.source))
+            holder = member_of(await self.redis.get(lease_key(robot.source)))
             if holder is None:
                 raise MoveError(503, f"source {robot.source}: {NO_WORKER}")
             command = {"id": ident, "robot": robot.name, "joints": q, "reply": self._reply}
-            if not await self.redis.publish(command_channel(text(holder)), orjson.dumps(command)):
+            if not await self.redis.publish(command_channel(holder), orjson.dumps(command)):
                 raise MoveError(503, f"the worker following {robot.source} has gone")
             async with asyncio.timeout(COMMAND_TIMEOUT_S):
                 status, detail = await answer
+        except TimeoutError:  # before OSError, of which it is one
+            raise MoveError(504, f"the worker following {robot.source} did not answer") from None
         except (RedisError, OSError) as exc:
             raise MoveError(503, f"message broker unreachable: {exc}") from exc
-        except TimeoutError:
-            raise MoveError(504, f"the worker following {robot.source} did not answer") from None
         finally:
             self._replies.pop(ident, None)
         if status != 202:
@@ -193,7 +204,10 @@ class Replica(Runtime):
                     if message["channel"] == FRAMES.encode():
                         self._on_batch(message["data"])
                     else:
-                        self._on_answer(message["data"])
+                        self._checked(self._on_answer, message["data"])
+                    # Buffered messages come without a wait: a burst must not hold the loop
+                    # (and the viewers' writes) until it is all read.
+                    await asyncio.sleep(0)
             except (RedisError, OSError) as exc:
                 self._lost_broker(exc, retry)
             finally:
@@ -209,7 +223,7 @@ class Replica(Runtime):
         self._found_broker()
         for name, record in zip(names, records, strict=True):
             if record is not None:
-                self._on_record(name, record)
+                self._checked(self._on_record, name, record)
         for name in names:
             self._send_status(name)
 
@@ -225,48 +239,58 @@ class Replica(Runtime):
                 health.state, health.error = "connecting", WAITING
 
     def _on_batch(self, data: bytes) -> None:
+        """A worker's batch: each item checked, then fed to the hub (or health) as it came."""
+        per_source: Counter[str] = Counter()
         try:
-            for key, message, protocol in envelope.unpack(data):
-                kind, _, source = key.partition(":")
-                health = self._health.get(source)
-                if health is None:
-                    continue  # a source of another version of the cell
-                if kind == "status":
-                    assert isinstance(message.payload, str)
-                    self._on_record(source, message.payload)
-                    continue
-                self.hub.publish(key, message, protocol)
-                if health.mark_sample():
-                    self._send_status(source)
-        except (ValueError, AssertionError) as exc:
-            log.warning("%s: dropped a garbled batch: %s", self.id, exc)
+            for item in envelope.unpack(data):
+                source = item[0].partition(":")[2]
+                per_source[source] += 1
+                if per_source[source] > ITEMS_PER_SOURCE:  # a worker sends each key once
+                    raise Refused("batch", f"a batch of more than 3 items of {source[:80]!r}")
+                self._checked(self._on_item, item)
+        except Refused as exc:
+            self.refusals.refuse(exc.kind, str(exc))
+        except ValueError as exc:
+            self.refusals.refuse("batch", f"a garbled batch: {exc}")
+
+    def _checked(self, handle: Callable[..., None], *args: Any) -> None:
+        """``handle(*args)``; what it refuses is counted and logged, once a minute at most."""
+        try:
+            handle(*args)
+        except Refused as exc:
+            self.refusals.refuse(exc.kind, str(exc))
+
+    def _on_item(self, item: envelope.Item) -> None:
+        kind, source = self.inbound.item(item)
+        key, message, protocol = item
+        health = self._health[source]
+        if kind == "status":
+            assert isinstance(message.payload, str)  # checked by inbound.item
+            self._on_record(source, message.payload)
+            return
+        self.hub.publish(key, message, protocol)
+        if health.mark_sample():
+            self._send_status(source)
 
     def _on_record(self, source: str, data: bytes | str) -> None:
         """A worker's status record: robots' health, the source's error, its URL."""
-        health = self._health[source]
-        try:
-            record = orjson.loads(data)
-            status = record["status"]
-            health.url, health.mock = status["url"], status["mock"]
-            health.warning = status["warning"]
-            health.overloaded = status.get("overloaded")  # the worker's count, not ours
-            health.robots = {n: robot_health(r) for n, r in record["robots"].items()}
-            self.holders[source] = record["worker"]
-        except (orjson.JSONDecodeError, KeyError, TypeError) as exc:
-            log.warning("%s: ignored a garbled status of %s: %s", self.id, source, exc)
-            return
-        if status["state"] in ("error", "connecting"):
-            health.state, health.error = status["state"], status["error"]
+        record = self.inbound.record(source, data)
+        health, status = self._health[source], record.status
+        health.url, health.mock = status.url, status.mock
+        health.warning = status.warning
+        health.device = status.device
+        health.overloaded = status.overloaded  # the worker's count, not ours
+        health.robots = {name: robot.health() for name, robot in record.robots.items()}
+        self.holders[source] = member_of(record.worker)
+        if status.state in ("error", "connecting"):
+            health.state, health.error = status.state, status.error
         self._send_status(source)
 
     def _on_answer(self, data: bytes) -> None:
-        try:
-            answer = orjson.loads(data)
-            waiting = self._replies.get(answer["id"])
-            if waiting is not None and not waiting.done():
-                waiting.set_result((int(answer["status"]), str(answer["detail"])))
-        except (orjson.JSONDecodeError, KeyError, TypeError, ValueError):
-            log.warning("%s: ignored a garbled answer to a move", self.id)
+        ident, status, detail = answer_of(data)
+        waiting = self._replies.get(ident)
+        if waiting is not None and not waiting.done():
+            waiting.set_result((status, detail))
 
     def _send_status(self, source: str) -> None:
         health = self._health[source]
@@ -298,7 +322,7 @@ class Replica(Runtime):
                 continue
             self._found_broker()
             for name, holder in zip(names, holders, strict=True):
-                self.holders[name] = None if holder is None else text(holder)
+                self.holders[name] = member_of(holder)
                 health = self._health[name]
                 if holder is None and name in missing and not health.live:
                     if health.error != NO_WORKER:

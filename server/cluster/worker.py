@@ -7,7 +7,10 @@ moves replicas route to it for the sources it holds.
 
 When it cannot renew its leases for a lease time (Redis gone), it stops
 every source: another worker may be following them by then, and no source
-is followed by two workers.
+is followed by two workers. The leases have a Redis connection of their own,
+so nothing else the worker does with Redis (publishing frames, answering a
+flood of moves) can keep them from being renewed; moves are bounded per
+source (``commands``), and every task is ``supervised``.
 """
 
 from __future__ import annotations
@@ -21,12 +24,12 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-import orjson
 from redis.asyncio import Redis
 from redis.exceptions import RedisError
 
 from ..cell import Cell
 from ..history import History
+from ..logs import Throttled
 from ..loop_pacing import loop_pacer
 from ..runtime import MoveError, Runtime, SourceDefaults
 from ..runtime.reload import follow_cell_file
@@ -38,12 +41,20 @@ from .broker import (
     connect,
     member_id,
 )
+from .commands import Commands, MoveCommand
+from .inbound import MAX_TEXT
 from .lease import Leases, Tick
 from .publisher import BrokerHub
+from .supervise import supervised
 
 log = logging.getLogger(__name__)
 
 WORKER_HISTORY_S = 1.0
+
+
+def cut(text: str) -> str:
+    """A text of a status record, within what replicas take (``inbound.MAX_TEXT``)."""
+    return text if len(text) <= MAX_TEXT else text[: MAX_TEXT - 3] + "..."
 
 
 def listed(names: list[str], most: int = 8) -> str:
@@ -67,12 +78,16 @@ class Worker(Runtime):
         """The cell file's cell; ``self.cell`` holds only the sources held."""
         self.held: list[str] = []
         self.broker = BrokerState(broker.url, f"worker {self.id}")
-        self.leases = Leases(self.redis, self.id, broker.lease_s)
+        self.lease_redis: Redis = connect(broker.url, broker.password, broker.lease_s / 2)
+        self.leases = Leases(self.lease_redis, self.id, broker.lease_s)
         self.lease_s = broker.lease_s
         self._lock = asyncio.Lock()
         self._applied: Cell | None = None
         """The cell file's cell the running sources were last set up from."""
-        self._commands: set[asyncio.Task[None]] = set()
+        refusals = Throttled(log, f"worker {self.id}: moves")
+        self.commands = Commands(self.redis, self._execute, self._source_of, refusals)
+        self.restarts: dict[str, int] = {}
+        """Supervised tasks started again after they failed, by name."""
 
     @property
     def publisher(self) -> BrokerHub:
@@ -96,6 +111,7 @@ class Worker(Runtime):
             if set(self.held) != {s.name for s in wanted}:
                 log.info("%s: following %s", self.id, listed([s.name for s in wanted]))
             self.held = [s.name for s in wanted]
+            self.commands.keep([s.name for s in self.whole.sources])
 
     def _publish_cell(self) -> None:
         """Nothing to publish: replicas greet their viewers from their own cell file."""
@@ -105,12 +121,16 @@ class Worker(Runtime):
         if running is None:
             return None
         health = running.health
+        status = {
+            key: cut(value) if isinstance(value, str) else value
+            for key, value in health.status().model_dump().items()
+        }
         return {
-            "status": health.status().model_dump(),
+            "status": status,
             "robots": {
                 name: {
                     "ok": robot.ok,
-                    "error": robot.error,
+                    "error": None if robot.error is None else cut(robot.error),
                     "frames": robot.frames,
                     "values": None if robot.values is None else robot.values.tolist(),
                 }
@@ -165,7 +185,7 @@ class Worker(Runtime):
             log.exception("%s: following %s failed", self.id, listed(tick.held + tick.taken))
 
     async def follow_commands(self) -> None:
-        """Execute the moves replicas send for sources held; reconnects after the broker."""
+        """Take the moves replicas send for sources held; reconnects after the broker."""
         while True:
             pubsub = self.redis.pubsub(ignore_subscribe_messages=True)
             try:
@@ -173,9 +193,9 @@ class Worker(Runtime):
                 while True:
                     message = await pubsub.get_message(timeout=1.0)
                     if message is not None and message["type"] == "message":
-                        task = asyncio.create_task(self._execute(message["data"]))
-                        self._commands.add(task)  # held until done: the loop keeps weak ones
-                        task.add_done_callback(self._commands.discard)
+                        self.commands.take(message["data"])
+                        # Buffered messages come without a wait: a flood must not hold the loop.
+                        await asyncio.sleep(0)
             except (RedisError, OSError):
                 pass  # the lease loop reports the broker's state
             finally:
@@ -183,29 +203,26 @@ class Worker(Runtime):
                     await pubsub.aclose()  # type: ignore[no-untyped-call]
             await asyncio.sleep(self.lease_s / 4)
 
-    async def _execute(self, data: bytes) -> None:
-        try:
-            command = orjson.loads(data)
-            reply, ident = str(command["reply"]), command["id"]
-            robot = self.robot(str(command["robot"]))
-        except (orjson.JSONDecodeError, KeyError, TypeError):
-            log.warning("%s: ignored a malformed command", self.id)
-            return
-        status, detail = 202, "ok"
+    def _source_of(self, robot: str) -> str | None:
+        """The source of ``robot`` in the cell file (held or being taken over), None if none."""
+        found = next((r for r in self.whole.robots if r.name == robot), None)
+        return None if found is None else found.source
+
+    async def _execute(self, command: MoveCommand) -> tuple[int, str]:
+        """Move a robot as ``command`` asks; the answer owed: HTTP status and detail."""
         async with self._lock:  # a source being taken over is ready once the lock is free
+            robot = self.robot(command.robot)
             following = robot is not None and robot.source in self.sources
         try:
             if robot is None or not following:
-                raise MoveError(503, f"this worker no longer follows {command['robot']!r}")
-            await self.move(robot, list(command["joints"]))
+                raise MoveError(503, f"this worker no longer follows {command.robot!r}")
+            await self.move(robot, command.joints)
         except MoveError as exc:
-            status, detail = exc.status, str(exc)
+            return exc.status, str(exc)
         except Exception as exc:  # an answer is owed whatever happens
             log.exception("%s: move failed", self.id)
-            status, detail = 500, f"internal error: {exc!r}"
-        answer = orjson.dumps({"id": ident, "status": status, "detail": detail})
-        with contextlib.suppress(RedisError, OSError):
-            await self.redis.publish(reply, answer)
+            return 500, f"internal error: {exc!r}"
+        return 202, "ok"
 
     async def close(self) -> None:
         """Stop following, give the leases up so others take over at once, then clean up.
@@ -223,7 +240,9 @@ class Worker(Runtime):
             stopping = [source.stop() for source in self.sources.values()]
             await asyncio.gather(*stopping, return_exceptions=True)  # logouts: 2 s at most each
             self.sources, self.held = {}, []
+        await self.commands.close()
         await self.redis.aclose()
+        await self.lease_redis.aclose()
 
 
 async def run_worker(
@@ -239,9 +258,10 @@ async def run_worker(
         loop.add_signal_handler(sig, stop.set)
     loop_pacer().start()
     tasks = [
-        asyncio.create_task(worker.publisher.run(), name="publish"),
-        asyncio.create_task(worker.follow_leases(), name="leases"),
-        asyncio.create_task(worker.follow_commands(), name="commands"),
+        supervised("publish", worker.publisher.run, worker.restarts),
+        supervised("leases", worker.follow_leases, worker.restarts),
+        supervised("commands", worker.follow_commands, worker.restarts),
+        supervised("answers", worker.commands.answer_all, worker.restarts),
     ]
     if cell.path is not None:
         path: Path = cell.path

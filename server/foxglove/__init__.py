@@ -1,6 +1,6 @@
-"""The live Foxglove endpoint (``--foxglove PORT``) and the token guard in front of it."""
+"""The live Foxglove endpoint (``--foxglove PORT``) and the guard in front of it."""
 
-from .guard import TokenGuard, token_of
+from .guard import Guard
 from .live import FoxgloveEndpoint
 
-__all__ = ["FoxgloveEndpoint", "TokenGuard", "token_of"]
+__all__ = ["FoxgloveEndpoint", "Guard"]

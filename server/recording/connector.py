@@ -11,11 +11,14 @@ from ..sources import Sample, SourceError
 class ReplayConnector:
     """Delivers what ``play()`` yields (see ``SourceReplay.play``); cannot be moved."""
 
-    warning: str | None = None
     device: str | None = None
 
-    def __init__(self, play: Callable[[], AsyncGenerator[Sample, None]]) -> None:
+    def __init__(
+        self, play: Callable[[], AsyncGenerator[Sample, None]], warning: str | None = None
+    ) -> None:
         self._play = play
+        self.warning = warning
+        """What the replay leaves out of the file (``SourceReplay.warning``)."""
 
     async def follow(
         self, nodes: list[str], period_s: float, deliver: Callable[[Sample], None]

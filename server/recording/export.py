@@ -1,14 +1,28 @@
-"""The page's record button: the last minutes of history as one MCAP file."""
+"""The page's "Save recording": the last minutes of history as one MCAP file.
+
+The rows are copied out on the event loop (``history_rows``, a few array
+copies); the file is written in a worker thread a WINDOW_S of samples at a
+time, so the poses computed and the messages encoded at once are those of
+one window, whatever the span saved.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Iterator
 from pathlib import Path
+
+import numpy as np
 
 from ..cell import Cell
 from ..history import History, Mark, NewRows
+from ..history.ring import Rows
 from .encode import encode_batch
 from .writer import McapFile
+
+WINDOW_S = 10.0
+"""Samples encoded together: 10 s of the demo cell's 3 robots is about 3 MB of messages."""
 
 
 def history_rows(
@@ -28,9 +42,37 @@ def history_rows(
 def write_export(
     path: Path, cell: Cell, sources: list[NewRows], marks: list[Mark], t0: float
 ) -> None:
-    """Write what ``history_rows`` copied to ``path`` (in a worker thread)."""
+    """Write what ``history_rows`` copied to ``path`` (in a worker thread), window by window."""
     file = McapFile(path, cell, t0)
     try:
-        file.write(encode_batch(sources, marks, file.frames))
+        for window_sources, window_marks in windows(sources, marks, t0):
+            file.write(encode_batch(window_sources, window_marks, file.frames))
     finally:
         file.close()
+
+
+def windows(
+    sources: list[NewRows], marks: list[Mark], t0: float, span_s: float = WINDOW_S
+) -> Iterator[tuple[list[NewRows], list[Mark]]]:
+    """The rows and marks of each ``span_s`` from ``t0`` on, oldest first (every row once)."""
+    ends = [float(s.rows.t[-1]) for s in sources if len(s.rows)] + [m.t for m in marks]
+    last = max(ends, default=t0)
+    start = t0
+    while True:
+        stop = start + span_s
+        final = stop > last
+        part = [_between(s, start, stop, first=start == t0, final=final) for s in sources]
+        mine = [m for m in marks if (start <= m.t or start == t0) and (m.t < stop or final)]
+        yield part, mine
+        if final:
+            return
+        start = stop
+
+
+def _between(source: NewRows, start: float, stop: float, first: bool, final: bool) -> NewRows:
+    """``source`` with only its rows at ``start <= t < stop`` (open-ended at either end)."""
+    rows = source.rows
+    lo = 0 if first else int(np.searchsorted(rows.t, start, "left"))
+    hi = len(rows) if final else int(np.searchsorted(rows.t, stop, "left"))
+    part = Rows(rows.t[lo:hi], rows.seq[lo:hi], rows.values[lo:hi], rows.first + lo)
+    return dataclasses.replace(source, rows=part, lost=source.lost if first else 0)

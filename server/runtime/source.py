@@ -139,7 +139,7 @@ async def _start_replay(
     tap.ring.write_many(replay.seq, replay.t, replay.values)
     tap.frozen = True
     log.info("source %s: replaying %d samples of %s", config.name, len(replay.t), config.replay)
-    connector = ReplayConnector(replay.play)
+    connector = ReplayConnector(replay.play, replay.warning)
     health = SourceHealth(name=config.name, url=f"replay:{config.replay.name}")
     poll = PollSettings(replay.period_s)
     acquisition = Acquisition(connector, robots, hub, health, poll, tap=tap)

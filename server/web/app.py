@@ -14,6 +14,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
+from ..access import Access
 from ..cell import Cell
 from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
@@ -114,8 +115,16 @@ async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio
         tasks.append(asyncio.create_task(recorder.run(), name="recorder"))
     if settings.foxglove_port is not None:
         token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
+        access = Access(
+            token, settings.allow_origin, HostPolicy(settings.host, settings.allow_host)
+        )
         endpoint = FoxgloveEndpoint(
-            runtime.history, lambda: runtime.cell, settings.host, settings.foxglove_port, token
+            runtime.history,
+            lambda: runtime.cell,
+            settings.host,
+            settings.foxglove_port,
+            access,
+            settings.max_viewers,
         )
         try:
             await endpoint.start()

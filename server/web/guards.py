@@ -6,19 +6,16 @@ answered before any route, body parser or WebSocket handshake runs.
 
 from __future__ import annotations
 
-import secrets
 from collections.abc import Iterable
-from http.cookies import SimpleCookie
-from urllib.parse import parse_qs, urlsplit
 
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from ..access import TOKEN_COOKIE, Access, token_given
 from ..hosts import HostPolicy
 
 MAX_BODY_BYTES = 1 << 20
 """Request bodies above 1 MiB are refused with 413 before they are read."""
-TOKEN_COOKIE = "linkview_token"
 WRITES = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 """Methods that may change state: a cross-site page must not be able to send them."""
 
@@ -39,30 +36,16 @@ def _header(scope: Scope, name: bytes) -> str | None:
     return None
 
 
-def origin_of(url: str) -> str:
-    """``scheme://host[:port]`` of a URL, lower-cased, default ports dropped."""
-    parts = urlsplit(url.strip())
-    scheme = (parts.scheme or "http").lower()
-    host = (parts.hostname or "").lower()
-    default = {"http": 80, "https": 443, "ws": 80, "wss": 443}.get(scheme)
-    port = "" if parts.port in (None, default) else f":{parts.port}"
-    return f"{scheme}://{host}{port}"
-
-
 class Gatekeeper:
     """Refuses other sites' pages and, with a viewer token set, anyone without it.
 
-    * ``Host`` must be a name this server answers (``hosts``): a page that
-      reached it through DNS rebinding names its own domain there.
-    * ``Origin`` (sent by browsers) must be the server's own origin or one of
-      ``allowed_origins`` on ``/ws`` and on every request that may change state
-      (POST, PUT, PATCH, DELETE), which must also be JSON: a page on another
-      site can neither open the stream nor send a "simple" form or text/plain
-      request, which browsers send without asking first. A missing Origin is a
-      non-browser client, which the token (if any) guards.
-    * The token comes as a cookie (set by opening the page with ``?token=``,
-      ``HttpOnly``, ``SameSite=Strict`` and, over TLS, ``Secure``), a
-      ``?token=`` query, or an ``Authorization: Bearer`` header.
+    The rules are ``access.Access``'s: ``Host`` on every request; ``Origin``
+    on ``/ws`` and on every request that may change state (POST, PUT, PATCH,
+    DELETE), which must also be JSON: a page on another site can neither open
+    the stream nor send a "simple" form or text/plain request, which browsers
+    send without asking first; the token on everything. A token given as
+    ``?token=`` is set as a cookie (``HttpOnly``, ``SameSite=Strict`` and,
+    over TLS, ``Secure``).
     """
 
     def __init__(
@@ -73,17 +56,15 @@ class Gatekeeper:
         hosts: HostPolicy | None = None,
     ) -> None:
         self.app = app
-        self.token = token or None
-        self.allowed = {origin_of(o) for o in allowed_origins}
-        self.hosts = hosts or HostPolicy("127.0.0.1")
+        self.access = Access(token, allowed_origins, hosts)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
-        host = _header(scope, b"host")
-        if not self.hosts.allows(host):
-            await refuse(scope, send, 403, self.hosts.refusal(host or ""))
+        refusal = self.access.host_refusal(_header(scope, b"host"))
+        if refusal is not None:
+            await refuse(scope, send, 403, refusal)
             return
         if scope["type"] == "websocket" and not self._origin_ok(scope):
             await refuse(scope, send, 403, "cross-origin WebSocket refused")
@@ -94,13 +75,18 @@ class Gatekeeper:
                 status, text = reason
                 await refuse(scope, send, status, text)
                 return
-        if self.token is not None:
-            given, from_query = self._token_of(scope)
-            if given is None or not secrets.compare_digest(given.encode(), self.token.encode()):
+        token = self.access.token
+        if token is not None:
+            given, from_query = token_given(
+                scope.get("query_string", b"").decode("latin-1"),
+                _header(scope, b"authorization"),
+                _header(scope, b"cookie"),
+            )
+            if not self.access.token_ok(given):
                 await refuse(scope, send, 401, "viewer token missing or wrong")
                 return
             if from_query and scope["type"] == "http":
-                send = _setting_cookie(send, self.token, secure=scope.get("scheme") == "https")
+                send = _setting_cookie(send, token, secure=scope.get("scheme") == "https")
         await self.app(scope, receive, send)
 
     def _write_refusal(self, scope: Scope) -> tuple[int, str] | None:
@@ -115,29 +101,8 @@ class Gatekeeper:
         return None
 
     def _origin_ok(self, scope: Scope) -> bool:
-        origin = _header(scope, b"origin")
-        if origin is None:
-            return True
-        if origin == "null":  # a sandboxed frame, a file: page, a redirect across sites
-            return False
-        host = _header(scope, b"host") or ""
-        scheme = "https" if scope.get("scheme") in ("https", "wss") else "http"
-        try:
-            own = origin_of(f"{scheme}://{host}")
-            return origin_of(origin) in self.allowed | {own}
-        except ValueError:  # a malformed Origin or Host (a bad port, an open bracket)
-            return False
-
-    def _token_of(self, scope: Scope) -> tuple[str | None, bool]:
-        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-        if "token" in query:
-            return query["token"][0], True
-        auth = _header(scope, b"authorization")
-        if auth is not None and auth.startswith("Bearer "):
-            return auth[7:], False
-        cookies = SimpleCookie(_header(scope, b"cookie") or "")
-        morsel = cookies.get(TOKEN_COOKIE)
-        return (morsel.value if morsel is not None else None), False
+        secure = scope.get("scheme") in ("https", "wss")
+        return self.access.origin_ok(_header(scope, b"origin"), _header(scope, b"host"), secure)
 
 
 def _setting_cookie(send: Send, token: str, secure: bool) -> Send:

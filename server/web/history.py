@@ -1,4 +1,5 @@
-"""``GET /api/history``: the timeline's range and marks, windows of samples, and recordings.
+"""``GET /api/history``: the timeline's range and marks, windows of samples;
+``POST /api/history/recording``: the last minutes saved as an MCAP file.
 
 Windows are computed in a worker thread from the source's history (poses by
 the batch kinematics); the live stream and other viewers are not involved.
@@ -7,7 +8,9 @@ the batch kinematics); the live stream and other viewers are not involved.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -15,17 +18,21 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, HTTPException, Query, Request
 from fastapi.responses import JSONResponse, Response
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..history import encode_binary, encode_json, source_window
 from ..recording import history_rows, write_export
 from ..recording.continuous import file_name
+from .download import FileDownload
 from .routes import runtime_of
+from .slots import Slots
 
 router = APIRouter()
 
 MAX_POSES_S = 120.0
 """Poses are recomputed per request: at most this long a window with poses."""
 BINARY = "application/vnd.linkview.history"
+EXPORT_RETRY_S = 5
 
 
 @router.get("/api/history", response_model=None)
@@ -90,22 +97,39 @@ def _summary(request: Request) -> dict[str, Any]:
     }
 
 
-@router.get("/api/history/recording", response_model=None)
-async def recording(
-    request: Request, minutes: Annotated[float, Query(gt=0.0, le=1440.0)] = 5.0
-) -> Response:
-    """The last ``minutes`` of history as an MCAP file (Foxglove opens it), for download."""
+class RecordingRequest(BaseModel):
+    """How much of the history to save."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    minutes: float = Field(5.0, gt=0.0, le=1440.0)
+
+
+@router.post("/api/history/recording", response_model=None)
+async def recording(request: Request, body: RecordingRequest) -> Response:
+    """The last ``minutes`` of history as an MCAP file (Foxglove opens it), for download.
+
+    A POST with a JSON body, so only this server's own page (or a script)
+    can ask for one (``guards``). One at a time, others 503 with
+    ``Retry-After``; written off the event loop a window at a time and sent
+    from its temporary file in chunks, so memory does not grow with the span.
+    """
     runtime = runtime_of(request)
-    seconds = min(minutes * 60.0, runtime.history.seconds)
+    seconds = min(body.minutes * 60.0, runtime.history.seconds)
     cell = runtime.cell
-    sources, marks, t0 = history_rows(runtime.history, cell, seconds)
-    with tempfile.TemporaryDirectory(prefix="linkview-") as folder:
-        path = Path(folder) / "export.mcap"
+    held = contextlib.AsyncExitStack()
+    await held.enter_async_context(exports.slot())
+    folder = Path(tempfile.mkdtemp(prefix="linkview-"))
+    held.callback(shutil.rmtree, folder, ignore_errors=True)
+    try:
+        sources, marks, t0 = history_rows(runtime.history, cell, seconds)
+        path = folder / "export.mcap"
         await asyncio.to_thread(write_export, path, cell, sources, marks, t0)
-        data = await asyncio.to_thread(path.read_bytes)
-    name = file_name(time.time())
-    return Response(
-        data,
-        media_type="application/octet-stream",
-        headers={"content-disposition": f'attachment; filename="{name}"'},
-    )
+    except BaseException:
+        await held.aclose()
+        raise
+    return FileDownload(path, file_name(time.time()), held.aclose)
+
+
+exports = Slots("a recording is being saved (one at a time)", 1, retry_s=EXPORT_RETRY_S)
+"""This process's saved recordings."""

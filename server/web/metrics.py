@@ -13,6 +13,7 @@ from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, generate_l
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, HistogramMetricFamily
 from prometheus_client.registry import Collector
 
+from .. import flood
 from ..ctrlx import CtrlxConnector
 from ..loop_pacing import loop_pacer
 from ..runtime import Runtime
@@ -20,7 +21,7 @@ from ..runtime.loop_lag import LoopLag
 from ..stream import PROTOCOL_VERSIONS
 from ..stream.batches import sample_batch
 from ..stream.buckets import Buckets
-from . import flood, transformation
+from . import transformation
 from .routes import runtime_of
 
 router = APIRouter()
@@ -109,7 +110,7 @@ class RuntimeCollector(Collector):
         yield viewers
         closed = CounterMetricFamily(
             "linkview_viewers_closed",
-            "Viewers closed for sending too many messages or not reading (web/flood.py)",
+            "Viewers closed for sending too many messages or not reading (flood.py)",
             labels=["bound"],
         )
         for bound in ("messages", "queued"):

@@ -11,10 +11,7 @@ or ``true`` where a number belongs is a 422, not a guess.
 
 from __future__ import annotations
 
-import asyncio
-import contextlib
 import time
-from collections.abc import AsyncIterator
 from typing import Annotated, Any, TypeVar
 
 import orjson
@@ -27,6 +24,7 @@ from ..cell import Robot, transformation
 from ..runtime import MoveError
 from ..sizes import MAX_JOINTS
 from .routes import runtime_of
+from .slots import Slots
 
 router = APIRouter(prefix="/api/robots")
 
@@ -47,44 +45,13 @@ WAIT_S = 2.0
 RETRY_AFTER_S = 1
 
 
-class _Running:
-    """Lets MAX_RUNNING transformation requests run; a few more wait briefly, the rest get 503."""
-
-    def __init__(self) -> None:
-        self._slots: asyncio.Semaphore | None = None  # made in the serving loop
-        self.waiting = 0
-        self.refused = 0
-
-    @contextlib.asynccontextmanager
-    async def slot(self) -> AsyncIterator[None]:
-        if self._slots is None:
-            self._slots = asyncio.Semaphore(MAX_RUNNING)
-        if self.waiting >= MAX_WAITING:
-            raise self._busy()
-        self.waiting += 1
-        try:
-            async with asyncio.timeout(WAIT_S):
-                await self._slots.acquire()
-        except TimeoutError:
-            raise self._busy() from None
-        finally:
-            self.waiting -= 1
-        try:
-            yield
-        finally:
-            self._slots.release()
-
-    def _busy(self) -> HTTPException:
-        self.refused += 1
-        return HTTPException(
-            status_code=503,
-            detail=f"busy: {MAX_RUNNING} transformation requests are being computed and "
-            f"{MAX_WAITING} wait; try again in {RETRY_AFTER_S} s",
-            headers={"Retry-After": str(RETRY_AFTER_S)},
-        )
-
-
-running = _Running()
+running = Slots(
+    f"{MAX_RUNNING} transformation requests are being computed and {MAX_WAITING} wait",
+    MAX_RUNNING,
+    MAX_WAITING,
+    WAIT_S,
+    RETRY_AFTER_S,
+)
 """This process's transformation requests."""
 
 

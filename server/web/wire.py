@@ -23,10 +23,10 @@ from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIO
 from websockets.frames import Frame
 from websockets.http11 import Request
 
+from .. import flood
+from ..flood import MAX_QUEUED_BYTES, MESSAGES_PER_S, MessageBudget
 from ..per_loop import PerLoop
 from ..stream.hub import Payload
-from . import flood
-from .flood import MAX_QUEUED_BYTES, MESSAGES_PER_S, MessageBudget
 
 log = logging.getLogger(__name__)
 

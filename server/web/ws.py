@@ -10,6 +10,7 @@ from collections.abc import Callable
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from fastapi.responses import PlainTextResponse
 
+from ..flood import SEND_TIMEOUT_S
 from ..protocol import PROTOCOLS
 from ..runtime import Runtime
 from ..stream import Message
@@ -18,9 +19,6 @@ from ..stream.hub import Payload
 from .wire import EXTENSION, FrameWriter, ws_frames
 
 log = logging.getLogger(__name__)
-
-SEND_TIMEOUT_S = 10.0
-"""A viewer that cannot take one batch in this time is disconnected."""
 
 router = APIRouter()
 

@@ -68,6 +68,40 @@ function move( name, joints ) {
 
 }
 
+/**
+ * The last `minutes` of history as an MCAP file (server/web/history.py): a POST,
+ * which a page on another site cannot send. `{ ok, blob, name }`, or `{ ok: false,
+ * status, detail, retryAfter }` (503 while another recording is being saved).
+ */
+async function saveRecording( minutes ) {
+
+	const response = await fetch( '/api/history/recording', {
+		method: 'POST',
+		headers: { 'content-type': 'application/json' },
+		body: JSON.stringify( { minutes } ),
+	} );
+	if ( ! response.ok ) {
+
+		let body = null;
+		try {
+
+			body = await response.json();
+
+		} catch {
+
+			body = null;
+
+		}
+		const retryAfter = Number( response.headers.get( 'retry-after' ) ) || null;
+		return { ok: false, status: response.status, detail: reason( { status: response.status, body } ), retryAfter };
+
+	}
+	const disposition = response.headers.get( 'content-disposition' ) || '';
+	const named = /filename="([^"]+)"/.exec( disposition );
+	return { ok: true, blob: await response.blob(), name: named ? named[ 1 ] : 'linkview.mcap' };
+
+}
+
 /** Ask the server to measure clearance for the next 10 s (server/web/clearance.py). */
 function wantClearance() {
 
@@ -75,4 +109,4 @@ function wantClearance() {
 
 }
 
-export { forward, inverse, move, post, reason, wantClearance };
+export { forward, inverse, move, post, reason, saveRecording, wantClearance };

@@ -1,3 +1,4 @@
+import { saveRecording } from './api.js';
 import { fetchSummary, fetchWindow, lastAtOrBefore } from './history.js';
 import { JointHistory } from './plots.js';
 import { clockTime } from './units.js';
@@ -90,21 +91,53 @@ class Timeline {
 		this.timeEl = el( 'span', { className: 'tl-time muted', textContent: '' } );
 		this.minutes = el( 'input', { type: 'number', min: '0.1', step: '1', value: '5', className: 'tl-minutes' } );
 		this.minutes.setAttribute( 'aria-label', 'minutes of history to save' );
-		this.record = el( 'a', { className: 'btn', textContent: 'Save recording', href: '/api/history/recording?minutes=5' } );
-		this.record.setAttribute( 'download', '' );
-		this.record.setAttribute( 'aria-label', 'save the last minutes as an MCAP file (opens in Foxglove)' );
-		this.minutes.addEventListener( 'change', () => {
-
-			const minutes = Number( this.minutes.value );
-			if ( Number.isFinite( minutes ) && minutes > 0 ) this.record.href = `/api/history/recording?minutes=${minutes}`;
-
-		} );
-		const save = el( 'span', { className: 'tl-save' }, this.record, 'last', this.minutes, 'min' );
+		this.record = button( 'Save recording', 'save the last minutes as an MCAP file (opens in Foxglove)', () => this.saveRecording() );
+		this.saveState = el( 'span', { className: 'tl-save-state muted', role: 'status', textContent: '' } );
+		const save = el( 'span', { className: 'tl-save' }, this.record, 'last', this.minutes, 'min', this.saveState );
 		container.replaceChildren(
 			el( 'div', { className: 'tl-row' }, this.stateEl, this.pauseButton, this.playButton, this.liveButton, speeds, this.timeEl, save ),
 			label,
 		);
 		this._updateButtons();
+
+	}
+
+	/** Save the last minutes (the number beside the button) as an MCAP file, downloaded. */
+	async saveRecording() {
+
+		const minutes = Number( this.minutes.value );
+		if ( ! ( Number.isFinite( minutes ) && minutes > 0 ) ) return;
+		this.record.disabled = true;
+		this.saveState.textContent = 'saving…';
+		try {
+
+			const saved = await saveRecording( minutes );
+			if ( saved.ok ) {
+
+				const url = URL.createObjectURL( saved.blob );
+				const anchor = el( 'a', { href: url, download: saved.name } );
+				document.body.append( anchor );
+				anchor.click();
+				anchor.remove();
+				setTimeout( () => URL.revokeObjectURL( url ), 60000 );
+				this.saveState.textContent = '';
+
+			} else {
+
+				const later = saved.retryAfter ? ` (try again in ${saved.retryAfter} s)` : '';
+				this.saveState.textContent = `not saved: ${saved.detail}${later}`;
+
+			}
+
+		} catch ( error ) {
+
+			this.saveState.textContent = `not saved: ${error.message}`;
+
+		} finally {
+
+			this.record.disabled = false;
+
+		}
 
 	}
 

@@ -102,6 +102,13 @@ class Role:
         """Die at once, as a crashed process does: no lease is given back."""
         stop(self.process, signal.SIGKILL)
 
+    def rss_mib(self) -> float:
+        """The process's resident memory now (MiB)."""
+        for line in Path(f"/proc/{self.process.pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+        raise AssertionError(f"no VmRSS for {self.name}")
+
 
 class Cluster:
     """The roles one test starts, all against one broker URL and one cell file."""

@@ -122,10 +122,11 @@ def _pid_with_arguments(part: bytes) -> int:
 
 
 @contextmanager
-def limits_server(log: Path) -> Iterator[Server]:
-    """The server these attacks hit, a viewer reading it, and that viewer's quiet frame rate."""
+def limits_server(log: Path, *args: str) -> Iterator[Server]:
+    """The server these attacks hit (``python -m server ARGS``), a viewer reading it, and that
+    viewer's quiet frame rate."""
     env = {"LINKVIEW_VIEWER_TOKEN": TOKEN, "LINKVIEW_CLIENT_TIMEOUT_S": "2"}
-    with server_process(free_port(), log, env=env) as url:
+    with server_process(free_port(), log, *args, env=env) as url:
         pid = _pid_with_arguments(f"--port\0{url.rsplit(':', 1)[1]}".encode())
         viewer = Viewer(url.replace("http", "ws") + "/ws")
         viewer.start()

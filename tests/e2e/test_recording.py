@@ -32,7 +32,7 @@ async def record(tmp_path: Path, seconds_of_frames: int = 60) -> tuple[Path, lis
     async with running_server(Settings()) as base, aiohttp.ClientSession() as http:
         frames = await stream_frames(base, seconds_of_frames)
         await asyncio.sleep(0.3)
-        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
             assert r.status == 200
             assert "attachment" in r.headers["content-disposition"]
             path = tmp_path / "saved.mcap"
@@ -65,7 +65,7 @@ async def test_a_saved_recording_opens_with_foxglove_schemas_poses_meshes_and_ce
 ) -> None:
     async with running_server(Settings()) as base, aiohttp.ClientSession() as http:
         await stream_frames(base, 40)
-        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
             assert r.status == 200 and "attachment" in r.headers["content-disposition"]
             path = tmp_path / "saved.mcap"
             path.write_bytes(await r.read())

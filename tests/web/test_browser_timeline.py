@@ -6,9 +6,11 @@ import json
 import math
 import urllib.request
 from collections.abc import Iterator
+from pathlib import Path
 from urllib.parse import urlencode
 
 import pytest
+from mcap.reader import make_reader
 from playwright.sync_api import Browser
 
 from tests.conftest import free_port
@@ -125,4 +127,31 @@ def test_space_plays_and_pauses_at_the_chosen_speed(viewer: Watched) -> None:
     page.keyboard.press("Space")
     page.wait_for_function("() => window.linkview.timeline.mode === 'paused'")
     page.get_by_role("button", name="back to the live view").click()
+    viewer.assert_clean()
+
+
+def test_save_recording_downloads_the_last_minutes_as_mcap(viewer: Watched, tmp_path: Path) -> None:
+    page = viewer.page
+    page.get_by_role("spinbutton", name="minutes of history to save").fill("0.1")
+    save = page.get_by_role(
+        "button", name="save the last minutes as an MCAP file (opens in Foxglove)"
+    )
+    with page.expect_download(timeout=TIMEOUT_MS) as download:
+        save.click()
+    path = tmp_path / "saved.mcap"
+    download.value.save_as(path)
+    assert download.value.suggested_filename.startswith("linkview-")
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.statistics is not None
+    topics = {c.topic for c in summary.channels.values()}
+    assert {"/tf", "/scene", f"/{ROBOT}/joints"} <= topics
+    # About 6 s of samples (0.1 min) of three robots at 50 Hz, with their transforms.
+    assert (
+        summary.statistics.channel_message_counts[
+            next(i for i, c in summary.channels.items() if c.topic == f"/{ROBOT}/joints")
+        ]
+        >= 100
+    )
+    assert page.get_by_role("status").filter(has_text="not saved").count() == 0
     viewer.assert_clean()
