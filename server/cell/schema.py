@@ -124,7 +124,7 @@ def _source_type(value: object) -> str:
     return str(getattr(value, "type", DEFAULT_SOURCE_TYPE))
 
 
-# One member per kind of source, tagged by its ``type`` (see server/runtime/kinds.py).
+# One member per kind of source, tagged by its ``type`` (see server/runtime/kinds/).
 Source = Annotated[
     Annotated[CtrlxSource, Tag("ctrlx")]
     | Annotated[RtdeSource, Tag("rtde")]

@@ -66,7 +66,7 @@ async def test_the_largest_robot_streams_answers_records_and_replays(
         # The base in the world, and a message of every link's transform per sample.
         sizes = sorted({len(message.transforms) for _, message in received})
         assert sizes[-1] == MAX_LINKS + 1, sizes  # with the TCP frame
-        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
             assert r.status == 200
             saved = tmp_path / "saved.mcap"
             saved.write_bytes(await r.read())

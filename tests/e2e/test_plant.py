@@ -26,7 +26,7 @@ async def test_the_plant_streams_every_robot_records_and_replays(
         health = await wait_for_robots(base, ROBOTS, 300, timeout_s=90)  # both, for a while
         kinds = {s["name"]: s["url"].split(":", 1)[0] for s in health["sources"]}
         assert kinds == {"kuka": "opc.tcp", "ctrlx": "http"}
-        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
             assert r.status == 200
             saved = tmp_path / "saved.mcap"
             saved.write_bytes(await r.read())

@@ -188,7 +188,7 @@ async def test_the_mixed_cell_streams_every_robot_records_and_replays(tmp_path: 
     robots = ("ur5e", "positioner", "kin12", "iiwa7")
     async with running_server(Settings(cell=MIXED)) as base, aiohttp.ClientSession() as http:
         await wait_for_robots(base, robots, 100, timeout_s=30)
-        async with http.get(f"{base}/api/history/recording", params={"minutes": "1"}) as r:
+        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
             assert r.status == 200
             saved = tmp_path / "saved.mcap"
             saved.write_bytes(await r.read())

@@ -15,14 +15,14 @@ import dataclasses
 import socket
 from pathlib import Path
 
-from ..cell import Robot, Source
-from ..cell.load import default_cache_dir
-from ..cell.schema import OpcuaSource
-from ..mock_opcua import MOCK_URI, MockOptions, OpcuaMock
-from ..opcua import OpcuaConnector, OpcuaSettings, UnitRule
-from .defaults import SourceDefaults
-from .kinds import Opened
-from .simulation import machine_for
+from ...cell import Robot, Source
+from ...cell.load import default_cache_dir
+from ...cell.schema import OpcuaSource
+from ...mock_opcua import MOCK_URI, MockOptions, OpcuaMock
+from ...opcua import OpcuaConnector, OpcuaSettings, UnitRule
+from ..defaults import SourceDefaults
+from ..simulation import machine_for
+from .opened import Opened
 
 
 async def open_opcua(config: Source, robots: list[Robot], defaults: SourceDefaults) -> Opened:
