@@ -55,6 +55,8 @@ UPSTREAM_QUEUE = 4
 """Messages read ahead from the SDK's server for one client (it is read at once anyway)."""
 WRITE_BELOW = 256 * 1024
 """A data message is written to a client only while fewer bytes than this wait for it."""
+CLOSE_TIMEOUT_S = 2.0
+"""How long a closing handshake may take (both sides are loopback or a viewer's browser)."""
 
 
 class _Bounded(ServerConnection):
@@ -113,7 +115,6 @@ class Guard:
         self.scene = scene
         self.upstream_port = upstream_port
         self.max_clients = max_clients
-        self.clients = 0
         self.refused = 0
         self.dropped = 0
         """Data messages not written to clients that did not read them."""
@@ -131,15 +132,30 @@ class Guard:
             compression=None,
             max_size=MAX_CLIENT_MESSAGE,
             max_queue=UPSTREAM_QUEUE,
+            close_timeout=CLOSE_TIMEOUT_S,
             write_limit=MAX_QUEUED_BYTES,  # sends wait only past it: what waits is ours to bound
         )
         return int(next(iter(self._server.sockets)).getsockname()[1])
 
+    @property
+    def clients(self) -> int:
+        """Clients connected now. Counted from the connections still open, not from the
+        relays still running: a client that has left frees its place at once, even while
+        its relay is still closing the SDK's side."""
+        return 0 if self._server is None else len(self._server.connections)
+
     async def stop(self) -> None:
-        """Stop listening and close every connection."""
+        """Stop listening and close every connection; a client that does not answer the
+        closing handshake within CLOSE_TIMEOUT_S is cut, so that it cannot hold up a
+        shutdown."""
         if self._server is not None:
             self._server.close()
-            await self._server.wait_closed()
+            try:
+                async with asyncio.timeout(2 * CLOSE_TIMEOUT_S):
+                    await self._server.wait_closed()
+            except TimeoutError:
+                for connection in self._server.all_connections:
+                    connection.transport.abort()
             self._server = None
 
     def _admit(self, connection: ServerConnection, request: Request) -> Response | None:
@@ -175,7 +191,6 @@ class Guard:
         """Relay one admitted client's messages to the SDK's server and back."""
         assert isinstance(client, _Bounded)
         client.budget = MessageBudget()
-        self.clients += 1
         try:
             async with connect(
                 f"ws://127.0.0.1:{self.upstream_port}/",
@@ -183,13 +198,12 @@ class Guard:
                 compression=None,
                 max_size=None,  # meshes: the SDK's server is ours
                 max_queue=UPSTREAM_QUEUE,
+                close_timeout=CLOSE_TIMEOUT_S,
             ) as upstream:
                 await self._both_ways(client, upstream)
         except (OSError, InvalidHandshake, TimeoutError) as exc:
             log.error("foxglove endpoint: cannot reach the SDK's server: %s", exc)
             await client.close(CloseCode.INTERNAL_ERROR, "the Foxglove server is not available")
-        finally:
-            self.clients -= 1
 
     async def _both_ways(self, client: ServerConnection, upstream: ClientConnection) -> None:
         """Copy messages until either side closes; a client that does not read is closed."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
 from pathlib import Path
 
@@ -66,13 +67,16 @@ async def test_a_dropped_session_is_named_in_health_and_streams_again_within_2_s
             status = health.status()  # what /api/health and the page's status show
             assert status.error is not None and "BadSessionIdInvalid" in status.error
             frames = health.robots["iiwa7"].frames
-            await wait_until(
-                lambda: (
-                    health.current_state() == "connected"
-                    and health.robots["iiwa7"].frames > frames + 5
+            with contextlib.suppress(TimeoutError):  # a slow machine: the assert says how slow
+                await wait_until(
+                    lambda: (
+                        health.current_state() == "connected"
+                        and health.robots["iiwa7"].frames > frames + 5
+                    ),
+                    20.0,
                 )
-            )
-            assert time.monotonic() - dropped < 2.0
+            took = time.monotonic() - dropped
+            assert took < 2.0, f"{took:.1f} s, then {health.current_state()}: {health.error}"
         finally:
             await runtime.stop()
 
