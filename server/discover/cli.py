@@ -12,6 +12,7 @@ from pydantic import ValidationError
 
 from ..config import Settings
 from ..ctrlx import Credentials, DataLayerClient, DataLayerError, client_ssl
+from ..text import printable
 from .browse import Controller, describe
 from .starter import SourceSpec, starter_cell
 
@@ -61,7 +62,7 @@ def main(argv: list[str]) -> int:
     try:
         controller = asyncio.run(_describe(settings))
     except DataLayerError as exc:
-        print(f"linkview: {settings.ctrlx_url}: {exc}", file=sys.stderr)
+        print(printable(f"linkview: {settings.ctrlx_url}: {exc}"), file=sys.stderr)
         return 1
     print(listing(controller))
     source = SourceSpec(
@@ -93,7 +94,11 @@ async def _describe(settings: Settings) -> Controller:
 
 
 def listing(controller: Controller) -> str:
-    """What was found, for people: axes with units and values, kinematics with their axes."""
+    """What was found, for people: axes with units and values, kinematics with their axes.
+
+    Every line passes ``printable``: what the controller says is shown, never obeyed by
+    the terminal (an ANSI escape in a unit cannot clear the screen or hide a line).
+    """
     lines = [
         f"{controller.url}: {len(controller.axes)} axes, {len(controller.kinematics)} kinematics"
     ]
@@ -109,7 +114,7 @@ def listing(controller: Controller) -> str:
         trafo = kin.trafo or "no joint transformation"
         lines.append(f"  kinematics {kin.name}: {trafo}; axes {', '.join(kin.axes)}")
     lines += [f"  not read: {note}" for note in controller.notes]
-    return "\n".join(lines)
+    return "\n".join(map(printable, lines))
 
 
 def _source_name(url: str) -> str:
