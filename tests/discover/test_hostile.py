@@ -255,3 +255,13 @@ def _json(url: str) -> dict[str, Any]:
     with urllib.request.urlopen(url, timeout=10) as response:
         result: dict[str, Any] = json.loads(response.read())
         return result
+
+
+async def test_without_bulk_requests_nodes_are_asked_one_by_one_a_few_at_a_time() -> None:
+    async with running(bulk_reads=False) as mock, DataLayerClient(mock.url, USER) as client:
+        controller = await describe(client)
+        stats = mock.state.traffic
+    assert len(controller.axes) == 11 and controller.notes == ()
+    assert mock.count("PUT", "/automation/api/v2/bulk") == 1  # tried once, refused: no more
+    assert mock.count("GET", "/automation/api/v2/nodes/motion/axs/") > 11 * 3
+    assert stats.most_in_flight <= CONCURRENCY
