@@ -150,7 +150,8 @@ def test_rows_and_windows_across_blocks_match_a_deque(
             ring.write(k, float(t[0]), values[0].tolist())
         else:
             ring.write_many(seq, t, values)
-        reference.extend((int(s), float(x), float(x), -float(x)) for s, x in zip(seq, t, strict=True))
+        pairs = zip(seq.tolist(), t.tolist(), strict=True)
+        reference.extend((s, x, x, -x) for s, x in pairs)
         k += n
     rows = ring.rows(0)
     assert rows.seq.tolist() == [r[0] for r in reference]
