@@ -167,7 +167,10 @@ def check(argv: list[str]) -> int:
     files = parser.parse_args(argv).files
     try:
         defaults = source_defaults(Settings(**{}))  # the environment's, as the server reads it
-    except ValidationError:  # the server would not start either; check the cells as it would
+    except ValidationError as exc:
+        settings = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
+        print(f"linkview: the server would not start with these settings ({settings}); "
+              "checking with the defaults", file=sys.stderr)  # fmt: skip
         defaults = SourceDefaults()
     status = 0
     for name in files:

@@ -25,7 +25,7 @@ MAX_SOURCES = 1000
 """Sources of one cell: each is a connection (and, without ``url``, an embedded mock)."""
 MAX_NODES_PER_SOURCE = 4096
 """Nodes one source reads (joints and setpoints): one subscription or bulk read each sample."""
-MAX_NODES = 32_768
+MAX_NODES = 16_384
 """Nodes of the whole cell."""
 
 
