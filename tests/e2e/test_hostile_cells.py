@@ -204,7 +204,7 @@ def test_check_names_each_mistake_on_one_line_never_a_traceback(tmp_path: Path) 
     history_s = 86_400
     # Full, a day at 50 Hz (+25 % margin) of two sources of 30 nodes, each row with its time
     # and counter, 8 bytes each:
-    full = 2 * round(history_s / 0.02 * 1.25) * (30 + 2) * 8
+    full = 2 * round(history_s / 0.02 * 1.25) * (30 + 2) * 8 / 2**20
     huge = len(files["huge.toml"].encode()) / 2**20
     done = subprocess.run(
         [sys.executable, "-m", "server", "check", *sorted(files), "long.toml"],
@@ -219,7 +219,7 @@ def test_check_names_each_mistake_on_one_line_never_a_traceback(tmp_path: Path) 
         "deep.toml: (file): nests tables or arrays too deeply to read",
         f"huge.toml: (file): is {huge:.1f} MiB; a cell file may be at most 4.0 MiB",
         "many.toml: robot: 2000 robots; a cell may have at most 1000",
-        f"long.toml: (cell): its history (86400 s of 60 nodes) would take up to {full / 2**20:.0f} MiB; "
+        f"long.toml: (cell): its history (86400 s of 60 nodes) would take up to {full:.0f} MiB; "
         "at most 2048 MiB: shorten --history (LINKVIEW_HISTORY_S) or lengthen the sources' "
         "period_ms",
     ]
