@@ -16,7 +16,6 @@ import json
 import os
 import subprocess
 import sys
-import textwrap
 import time
 import urllib.request
 from collections.abc import Callable, Iterator
@@ -29,6 +28,7 @@ from mcap.writer import Writer
 
 from server.cell.limits import MAX_FILE_BYTES, MAX_ROBOTS
 from server.recording.messages import joints_topic
+from tests.e2e.test_cells import ARM, cell_text
 from tests.e2e.test_limits import AUTH, Server, limits_server
 from tests.web._browser import ROOT
 
@@ -39,18 +39,7 @@ name = "line1"
 [[source]]
 name = "line2"
 """
-ARM = """
-[[robot]]
-name = "{name}"
-source = "{source}"
-base = {{ xyz = [{x}, 0.0, 0.0] }}
-kinematics = {{ type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }}
-joints = [ {{ node = "motion/axs/{name}_a/state/values/actual/pos" }},
-           {{ node = "motion/axs/{name}_b/state/values/actual/pos" }} ]
-"""
-GOOD = textwrap.dedent(SOURCES) + ARM.format(name="a", source="line1", x=0.0) + ARM.format(
-    name="b", source="line2", x=500.0
-)
+GOOD = cell_text(SOURCES, ("a", "line1", 0.0), ("b", "line2", 500.0))
 DEEP = "x = " + "[" * 200_000 + "]" * 200_000 + "\n"
 """400 kB of nested brackets: tomllib recursed until RecursionError, which ended the watcher."""
 ANSWER_S = 30.0
@@ -60,8 +49,7 @@ ANSWER_S = 30.0
 
 def many_robots(count: int) -> str:
     """A cell of ``count`` two-axis robots over the two sources."""
-    arms = (ARM.format(name=f"r{i}", source=f"line{1 + i % 2}", x=i * 1.0) for i in range(count))
-    return textwrap.dedent(SOURCES) + "".join(arms)
+    return cell_text(SOURCES, *((f"r{i}", f"line{1 + i % 2}", i * 1.0) for i in range(count)))
 
 
 def health(server: Server) -> dict[str, Any]:

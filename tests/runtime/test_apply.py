@@ -10,7 +10,6 @@ fault injected; everything else is the real start-up path.
 from __future__ import annotations
 
 import socket
-import textwrap
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -20,20 +19,12 @@ from server.cell import Cell, Robot, Source, load_cell
 from server.runtime import Runtime, SourceDefaults, kinds
 from server.runtime.kinds import Opened
 from tests.conftest import wait_until
-
-ARM = """
-[[robot]]
-name = "{name}"
-source = "{source}"
-kinematics = {{ type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }}
-joints = [ {{ node = "motion/axs/{name}_a/state/values/actual/pos" }},
-           {{ node = "motion/axs/{name}_b/state/values/actual/pos" }} ]
-"""
+from tests.e2e.test_cells import cell_text
 
 
 def cell(folder: Path, line2_period_ms: int, bad: bool) -> Cell:
     """line1 and line2 (embedded mocks), one arm each; with ``bad``, a third source."""
-    text = f"""
+    sources = f"""
     [[source]]
     name = "line1"
 
@@ -42,10 +33,10 @@ def cell(folder: Path, line2_period_ms: int, bad: bool) -> Cell:
     period_ms = {line2_period_ms}
     """
     if bad:
-        text += '\n[[source]]\nname = "bad"\n'
-    arms = [("a", "line1"), ("b", "line2"), *([("c", "bad")] if bad else [])]
+        sources += '\n[[source]]\nname = "bad"\n'
+    arms = [("a", "line1", 0.0), ("b", "line2", 500.0), *([("c", "bad", 1000.0)] if bad else [])]
     path = folder / "cell.toml"
-    path.write_text(textwrap.dedent(text) + "".join(ARM.format(name=n, source=s) for n, s in arms))
+    path.write_text(cell_text(sources, *arms))
     return load_cell(path)
 
 

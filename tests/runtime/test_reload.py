@@ -14,6 +14,7 @@ import pytest
 from server.cell import load_cell
 from server.runtime import Runtime
 from server.runtime.reload import follow_cell_file
+from tests.e2e.test_cells import cell_text
 
 
 class Recorder:
@@ -104,17 +105,7 @@ async def saves(cell: Path, runtime: Rejections, load: Any, *versions: str) -> N
             await asyncio.wait_for(watcher, 5)
 
 
-GOOD = """
-[[source]]
-name = "line1"
-
-[[robot]]
-name = "arm"
-source = "line1"
-kinematics = { type = "type12" }
-joints = [ { node = "motion/axs/a/state/values/actual/pos" },
-           { node = "motion/axs/b/state/values/actual/pos" } ]
-"""
+GOOD = cell_text('[[source]]\nname = "line1"\n', ("arm", "line1", 0.0))
 DEEP = "x = " + "[" * 200_000 + "]" * 200_000 + "\n"
 """400 kB of nested brackets: tomllib recursed until RecursionError."""
 
