@@ -75,11 +75,6 @@ class CellDocument:
             self.doc.add(comment(note))
         self._sections: dict[str, AoT] = {}
 
-    def note(self, text: str) -> None:
-        """A comment line at the top level (after whatever was added before)."""
-        self.doc.add(tomlkit.nl())
-        self.doc.add(comment(text))
-
     def add(self, section: str, item: Table) -> None:
         """Append ``item`` to the array of tables ``section`` (``source``, ``robot``)."""
         if section not in self._sections:

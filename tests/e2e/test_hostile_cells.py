@@ -90,7 +90,7 @@ def streaming(state: dict[str, Any], urls: dict[str, str]) -> None:
 def cell_server(folder: Path) -> Iterator[Server]:
     """The attacked server, serving ``GOOD`` from ``folder/cell/cell.toml``."""
     path = folder / "cell" / "cell.toml"  # the log apart: the server watches the cell's folder
-    path.parent.mkdir()
+    path.parent.mkdir(parents=True)
     path.write_text(GOOD)
     with limits_server(folder / "server.log", "--cell", str(path)) as server:
         server.cell = path
