@@ -18,6 +18,7 @@ import uvicorn
 from pydantic import ValidationError
 
 from .cell import Cell, CellError, load_cell
+from .cell.load import unreadable
 from .cluster import broker_settings, run_worker
 from .config import Settings
 from .hosts import HostPolicy, is_loopback
@@ -201,8 +202,7 @@ def checked_cell(path: Path, defaults: SourceDefaults) -> Cell:
     except CellError:
         raise
     except Exception as exc:
-        reason = f"cannot be checked: {type(exc).__name__}: {exc}"
-        raise CellError(path, [("(file)", reason)]) from exc
+        raise unreadable(path, exc) from exc
     problems = history_problems(cell, defaults)
     if problems:
         raise CellError(path, problems)

@@ -104,6 +104,12 @@ class CellError(Exception):
         super().__init__("\n".join(f"{path}: {key}: {_line(reason)}" for key, reason in problems))
 
 
+def unreadable(path: Path, exc: Exception) -> CellError:
+    """The CellError for a file that raised what no check foresaw: one line, not a traceback
+    (``check``, start-up and reload show it; the log keeps the traceback)."""
+    return CellError(path, [("(file)", f"cannot be read: {type(exc).__name__}: {exc}")])
+
+
 def _line(text: str) -> str:
     """A reason on one line, control characters escaped: one line per mistake, whatever a
     library's message (lxml, xacro) or the file's own text holds."""

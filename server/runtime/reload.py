@@ -17,6 +17,7 @@ from pathlib import Path
 from watchfiles import Change, awatch
 
 from ..cell import Cell, CellError
+from ..cell.load import unreadable
 from ..sandbox import stop_all
 from . import Runtime
 
@@ -74,7 +75,7 @@ async def reload(runtime: Runtime, path: Path, load: Callable[[], Cell]) -> None
         runtime.reject(str(exc))
         return
     except Exception as exc:  # a file no check foresaw: one line, the previous cell runs on
-        error = CellError(path, [("(file)", f"cannot be read: {type(exc).__name__}: {exc}")])
+        error = unreadable(path, exc)
         log.error("cell file changed but cannot be used; still running the previous one:\n%s",
                   error, exc_info=exc)  # fmt: skip
         runtime.reject(str(error))

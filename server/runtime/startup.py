@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 
 from ..cell import Cell, CellError, load_cell
+from ..cell.load import unreadable
 from ..cell.schema import CtrlxSource
 from ..config import Settings
 from ..history import History
@@ -26,12 +27,18 @@ def configured_cell(settings: Settings, path: Path | None = None, text: str | No
     With ``--replay FILE`` every source plays that recording instead. ``text``:
     the file as edited on the page, not yet saved (``server.commissioning``).
     """
-    if settings.replay is not None:
-        cell = replay_cell(settings.replay, path or settings.cell)
-    else:
-        target = path or settings.cell or DEMO_CELL
-        loaded = load_cell(target, text=text, stand_ins=settings.allow_edits or None)
-        cell = with_controller(loaded, settings)
+    try:
+        if settings.replay is not None:
+            cell = replay_cell(settings.replay, path or settings.cell)
+        else:
+            target = path or settings.cell or DEMO_CELL
+            loaded = load_cell(target, text=text, stand_ins=settings.allow_edits or None)
+            cell = with_controller(loaded, settings)
+    except CellError:
+        raise
+    except Exception as exc:  # one line at start-up and on reload, as check shows it
+        log.debug("reading the cell failed", exc_info=exc)
+        raise unreadable(path or settings.cell or settings.replay or DEMO_CELL, exc) from exc
     problems = history_problems(cell, source_defaults(settings))
     if problems:
         raise CellError(cell.path or Path("(cell)"), problems)
