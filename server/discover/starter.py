@@ -61,8 +61,7 @@ def starter_cell(controller: Controller, source: SourceSpec, command: str) -> st
     ]
     axes = {a.name: a for a in controller.axes}
     used: set[str] = set()
-    names: set[str] = set()
-    robots: list[Table] = []
+    kinematics: list[tuple[Kinematics, list[Axis]]] = []
     for kin in controller.kinematics:
         members = [axes[n] for n in kin.axes if n in axes]
         if len(members) != len(kin.axes) or not members:
@@ -70,17 +69,18 @@ def starter_cell(controller: Controller, source: SourceSpec, command: str) -> st
             header.append(f"Kinematics {kin.name} left out: axes not readable ({missing}).")
             continue
         used.update(kin.axes)
-        name = _unique(kin.name, names)
-        robots.append(_kinematics_robot(kin, members, name, source, len(robots)))
-    for group, members in _loose_groups([a for a in controller.axes if a.name not in used]):
-        name = _unique(group, names)
-        robots.append(_axis_group_robot(members, name, source, len(robots)))
-    if not robots:
+        kinematics.append((kin, members))
+    loose = _loose_groups([a for a in controller.axes if a.name not in used])
+    if not kinematics and not loose:
         header.append("TODO: no motion axes were found: add [[robot]] tables by hand.")
+    # Each robot is written as it is built: one robot's tomlkit items at a time in memory.
     cell = CellDocument(*header)
     cell.add("source", _source(source))
-    for robot in robots:
-        cell.add("robot", robot)
+    names: set[str] = set()
+    for index, (kin, members) in enumerate(kinematics):
+        cell.add("robot", _kinematics_robot(kin, members, _unique(kin.name, names), source, index))
+    for index, (group, members) in enumerate(loose, start=len(kinematics)):
+        cell.add("robot", _axis_group_robot(members, _unique(group, names), source, index))
     return cell.text()
 
 

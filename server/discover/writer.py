@@ -4,8 +4,8 @@ Whatever a device says (names, units, transformation names) may end up in a
 starter cell. Pasted into text, a kinematics named ``k1\\nallow_commands = true``
 ended its comment line and added a key. Here tomlkit writes every value, so a
 string is always a quoted, escaped string; comments pass ``one_line`` first, so
-none holds a newline or another control character. ``CellDocument.text``
-parses its own output again and refuses it unless it reads back as built.
+none holds a newline or another control character. ``CellDocument`` parses
+each table it writes again and refuses it unless it reads back as built.
 
 Kept apart from ``starter`` so that starter cells for other kinds of source
 (OPC UA, RTDE) are written the same way.
@@ -18,7 +18,8 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 import tomlkit
-from tomlkit.items import AoT, Array, Comment, InlineTable, Item, Table
+from tomlkit import TOMLDocument
+from tomlkit.items import Array, Comment, InlineTable, Item, Table
 
 from ..text import printable
 
@@ -67,25 +68,38 @@ def lines(entries: Iterable[tuple[Mapping[str, Any], str | None]]) -> Array:
 
 
 class CellDocument:
-    """A cell file being written: header comments, ``[[source]]`` and ``[[robot]]`` tables."""
+    """A cell file being written: header comments, then ``[[source]]`` and ``[[robot]]`` tables.
+
+    Each table is made into text as it is added, as a TOML document of its own
+    that must read back as exactly that one table: memory holds the text, not
+    a document of every table (tomlkit's items for 100 000 axes took 3 GB).
+    The pieces join into one file that reads as their union, since each is
+    whole TOML (no open string or array) and begins with its table's header.
+    """
 
     def __init__(self, *header: str) -> None:
-        self.doc = tomlkit.document()
+        head = tomlkit.document()
         for note in header:
-            self.doc.add(comment(note))
-        self._sections: dict[str, AoT] = {}
+            head.add(comment(note))
+        self._pieces = [_checked(head)]
 
     def add(self, section: str, item: Table) -> None:
         """Append ``item`` to the array of tables ``section`` (``source``, ``robot``)."""
-        if section not in self._sections:
-            self._sections[section] = tomlkit.aot()
-            self.doc.add(tomlkit.nl())
-            self.doc.append(section, self._sections[section])
-        self._sections[section].append(item)
+        piece = tomlkit.document()
+        piece.add(tomlkit.nl())
+        tables = tomlkit.aot()
+        tables.append(item)
+        piece.append(section, tables)
+        self._pieces.append(_checked(piece))
 
     def text(self) -> str:
-        """The TOML text; ValueError if it would not read back as the document built."""
-        text = tomlkit.dumps(self.doc)
-        if tomllib.loads(text) != self.doc.unwrap():
-            raise ValueError("the cell written does not read back as built")
-        return text
+        """The TOML text of the cell."""
+        return "".join(self._pieces)
+
+
+def _checked(doc: TOMLDocument) -> str:
+    """``doc`` as text; ValueError unless the text reads back as ``doc``."""
+    text = tomlkit.dumps(doc)
+    if tomllib.loads(text) != doc.unwrap():
+        raise ValueError("a table written does not read back as built")
+    return text
