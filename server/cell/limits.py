@@ -64,9 +64,7 @@ def shape_problems(raw: dict[str, Any]) -> list[tuple[str, str]]:
     return problems
 
 
-def node_problems(
-    sources: Iterable[tuple[str, int]], total: int
-) -> list[tuple[str, str]]:
+def node_problems(sources: Iterable[tuple[str, int]], total: int) -> list[tuple[str, str]]:
     """``(key, node count)`` of each source and the cell's total against the node bounds."""
     problems = [
         (key, f"reads {plural(count, 'node')}; a source may read at most {MAX_NODES_PER_SOURCE}")

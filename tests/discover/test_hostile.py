@@ -207,9 +207,9 @@ async def test_requests_that_fail_are_retried_and_what_still_fails_is_named() ->
     assert len(controller.axes) == 11 and controller.notes == ()
     demo_axes = controller.axes
     failed = [p for _, p, status in mock.log if status == 503]
-    assert failed and all(
-        any(p == q and s == 200 for _, q, s in mock.log) for p in failed
-    ), "every failed request was sent again and answered"
+    assert failed and all(any(p == q and s == 200 for _, q, s in mock.log) for p in failed), (
+        "every failed request was sent again and answered"
+    )
 
     # A request that keeps failing: every axis it asked for is named, none silently dropped.
     app = build_app()

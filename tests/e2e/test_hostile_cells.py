@@ -137,8 +137,10 @@ def test_a_reload_that_cannot_start_keeps_the_sources_streaming(server: Server) 
         # only its own source, the two sources that were running never stopped.
         state = answered(
             server,
-            lambda h: "OverflowError" in str(h["cell"]["error"])
-            or any("OverflowError" in str(s.get("error")) for s in h["sources"]),
+            lambda h: (
+                "OverflowError" in str(h["cell"]["error"])
+                or any("OverflowError" in str(s.get("error")) for s in h["sources"])
+            ),
         )
         streaming({**state, "sources": state["sources"][:2]}, urls)
     with server.attacked():
