@@ -15,6 +15,7 @@ from ..ctrlx import Credentials, DataLayerClient, DataLayerError, client_ssl
 from ..text import printable
 from .browse import Controller, describe
 from .starter import SourceSpec, starter_cell
+from .writer import plain_name
 
 PASSWORD_ENV = "LINKVIEW_CTRLX_PASSWORD"
 
@@ -118,5 +119,4 @@ def listing(controller: Controller) -> str:
 
 
 def _source_name(url: str) -> str:
-    host = urlsplit(url).hostname or "ctrlx"
-    return "".join(c if c.isalnum() or c in "_.-" else "_" for c in host)[:64]
+    return plain_name(urlsplit(url).hostname or "", "ctrlx")

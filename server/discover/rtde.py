@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
-import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -29,12 +28,11 @@ from ..sources import Sample, SourceError
 from ..text import printable
 from ..urdf._paths import Packages
 from .ur_models import MODELS, UrModel
-from .writer import CellDocument, comment, inline, table
+from .writer import CellDocument, comment, inline, plain_name, table
 
 DESCRIPTION_PACKAGE = "ur_description"
 DESCRIPTION_FILE = "urdf/ur.urdf.xacro"
 """UR's description package builds every arm from one xacro with the ``ur_type`` argument."""
-_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
 def main(argv: list[str]) -> int:
@@ -67,7 +65,7 @@ def main(argv: list[str]) -> int:
     joints = [sample.values.get(f"actual_q[{i}]") for i in range(6)]
     shown = ", ".join(f"{q:.4f}" if isinstance(q, float) else "?" for q in joints)
     print(printable(f"rtde://{host}:{port}: {device}; actual_q [{shown}] rad"))
-    name = args.source or _NAME.sub("_", host)[:64] or "ur"
+    name = args.source or plain_name(host, "ur")
     command = f"python -m server discover {args.url} --model {args.model}"
     text = starter_cell(args.url, name, MODELS[args.model], device, output, command)
     output.write_text(text, encoding="utf-8")

@@ -16,17 +16,16 @@ where the axis has one. What only a person can choose is marked ``TODO``:
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import tomlkit
-from tomlkit.items import Array, Table
+from tomlkit.items import AoT, Array, Table
 
 from .browse import Axis, Controller, Kinematics
 from .units import is_rotary, mapping
-from .writer import CellDocument, comment, commented, inline, lines, table
+from .writer import CellDocument, comment, commented, inline, lines, table, unique_name
 
 KNOWN_TRAFOS = ("IndraMotionType12", "DenavitHartenberg")
 """Joint transformations turned into linkview kinematics (type12, dh); the mock's names."""
@@ -34,7 +33,6 @@ SPACING_MM = 1000.0
 """Robots are first set out this far apart along X."""
 CHAIN_STEP_MM = 200.0
 """Placeholder distance between consecutive axes of a loose axis group."""
-_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
 @dataclass(frozen=True)
@@ -78,9 +76,11 @@ def starter_cell(controller: Controller, source: SourceSpec, command: str) -> st
     cell.add("source", _source(source))
     names: set[str] = set()
     for index, (kin, members) in enumerate(kinematics):
-        cell.add("robot", _kinematics_robot(kin, members, _unique(kin.name, names), source, index))
+        cell.add(
+            "robot", _kinematics_robot(kin, members, unique_name(kin.name, names), source, index)
+        )
     for index, (group, members) in enumerate(loose, start=len(kinematics)):
-        cell.add("robot", _axis_group_robot(members, _unique(group, names), source, index))
+        cell.add("robot", _axis_group_robot(members, unique_name(group, names), source, index))
     return cell.text()
 
 
@@ -187,26 +187,41 @@ def _axis_group_robot(axes: list[Axis], name: str, source: SourceSpec, index: in
         "about their +Z, linear ones move along it.",
         type="axis_group",
     )
-    chain = tomlkit.aot()
-    parent = ""
-    for i, axis in enumerate(axes):
-        rotary = is_rotary(axis.unit, axis.kind)
-        step = 0.0 if i == 0 else CHAIN_STEP_MM
-        entry = table(
-            name=_NAME.sub("_", axis.name),
-            parent=parent,
-            pose=inline({"xyz": [0.0, 0.0, step], "rpy_deg": [0.0, 0.0, 0.0]}),
-            type="rotary" if rotary else "linear",
-        )
-        lo, hi = (_to_cell(v, axis) for v in axis.limits)
-        if lo is not None and hi is not None:
-            entry.add("limits", [lo, hi])
-        chain.append(entry)
-        parent = _NAME.sub("_", axis.name)
-    group.add("axes", chain)
+    chain = [(axis.name, is_rotary(axis.unit, axis.kind), _cell_limits(axis)) for axis in axes]
+    group.add("axes", axis_chain(chain))
     robot.add(tomlkit.nl())
     robot.add("kinematics", group)
     return robot
+
+
+def axis_chain(axes: Iterable[tuple[str, bool, tuple[float, float] | None]]) -> AoT:
+    """The ``axes`` of an ``axis_group`` placeholder from ``(name, rotary, limits)`` of each axis:
+    each a child of the one before, ``CHAIN_STEP_MM`` above it, turning about (rotary) or moving
+    along its +Z; names made plain and unique."""
+    chain = tomlkit.aot()
+    names: set[str] = set()
+    parent = ""
+    for i, (name, rotary, limits) in enumerate(axes):
+        link = unique_name(name, names, f"axis{i + 1}")
+        entry = table(
+            name=link,
+            parent=parent,
+            pose=inline(
+                {"xyz": [0.0, 0.0, 0.0 if i == 0 else CHAIN_STEP_MM], "rpy_deg": [0.0, 0.0, 0.0]}
+            ),  # fmt: skip
+            type="rotary" if rotary else "linear",
+        )
+        if limits is not None:
+            entry.add("limits", list(limits))
+        chain.append(entry)
+        parent = link
+    return chain
+
+
+def _cell_limits(axis: Axis) -> tuple[float, float] | None:
+    """The axis's limits as the cell takes them (degrees or mm), if it has both."""
+    lo, hi = (_to_cell(v, axis) for v in axis.limits)
+    return None if lo is None or hi is None else (lo, hi)
 
 
 def _loose_groups(axes: list[Axis]) -> list[tuple[str, list[Axis]]]:
@@ -224,10 +239,8 @@ def _loose_groups(axes: list[Axis]) -> list[tuple[str, list[Axis]]]:
 
 def _limits(axes: list[Axis]) -> dict[str, Any]:
     """``{"limits": [[lo, hi], ...]}`` in degrees or mm when every axis has both; else ``{}``."""
-    pairs = [[_to_cell(v, a) for v in a.limits] for a in axes]
-    if any(lo is None or hi is None for lo, hi in pairs):
-        return {}
-    return {"limits": pairs}
+    pairs = [_cell_limits(a) for a in axes]
+    return {"limits": [list(pair) for pair in pairs if pair is not None]} if all(pairs) else {}
 
 
 def _to_cell(value: float | None, axis: Axis) -> float | None:
@@ -244,15 +257,6 @@ def _mm_or_deg(value: float, unit: str) -> float:
     """A transformation parameter in mm (lengths) or degrees (angles)."""
     factor = {"m": 1000.0, "rad": 180.0 / math.pi, "cm": 10.0}.get(unit.strip(), 1.0)
     return round(value * factor, 9)
-
-
-def _unique(wanted: str, taken: set[str]) -> str:
-    base = _NAME.sub("_", wanted).strip("_") or "robot"
-    name, k = base[:60], 2
-    while name in taken:
-        name, k = f"{base[:56]}_{k}", k + 1
-    taken.add(name)
-    return name
 
 
 def _list(values: Iterable[float | None]) -> list[float]:

@@ -13,6 +13,7 @@ Kept apart from ``starter`` so that starter cells for other kinds of source
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -23,10 +24,29 @@ from tomlkit.items import Array, Comment, InlineTable, Item, Table
 
 from ..text import printable
 
+_NOT_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
+"""What a robot, source or link name written by discover may not hold (made ``_``)."""
+
 
 def one_line(text: str) -> str:
     """``text`` as a comment may hold it: one line, control characters escaped."""
     return printable(text).strip()
+
+
+def plain_name(text: str, default: str) -> str:
+    """``text`` as a name in the cell: letters, digits, ``_ . -`` (the rest ``_``), at most 64
+    characters; ``default`` where nothing is left."""
+    return _NOT_NAME.sub("_", text).strip("_")[:64] or default
+
+
+def unique_name(wanted: str, taken: set[str], default: str = "robot") -> str:
+    """``plain_name(wanted)``, numbered past the names in ``taken``; added to ``taken``."""
+    base = plain_name(wanted, default)
+    name, k = base[:60], 2
+    while name in taken:
+        name, k = f"{base[:56]}_{k}", k + 1
+    taken.add(name)
+    return name
 
 
 def comment(text: str) -> Comment:
