@@ -3,7 +3,10 @@
 Runs the attacks of tests/e2e/test_limits.py (a 100 MB body, a 1 MB header,
 oversized viewer messages, 2000 idle connections, refused upgrades, a ping
 flood that never reads, a message flood, 20 concurrent 10 000-row ``/fk``)
-one after the other against one ``python -m server`` process. For each it
+one after the other against one ``python -m server`` process, then those of
+tests/e2e/test_hostile_cells.py (cell files saved while it serves: a source
+that cannot start, 400 kB of nested brackets, 100 000 and 2 000 robots)
+against another that serves a cell file. For each it
 reports the frame rate of a protocol-2 viewer reading throughout, beside the
 rate it got before any attack, and the server's RSS: its peak during the
 attack (sampled every 20 ms) and what is left once the attack is over. The
@@ -11,27 +14,40 @@ tests assert only a generous share of the quiet rate; the figures, and issue
 20's mark (another viewer keeps 45 of 50 frames/s, memory grows by 20 MB at
 most), belong here.
 
-With ``--network`` (or ``--all``) it runs issue 34's attacks on what the
-server reads from elsewhere instead, each section of its own
+A second table is ``discover`` against a hostile controller: the mock with
+20 000 and 100 000 more axes (2 000 in ``--quick``), 2 % of its requests
+answered 500: axes found and dropped, requests, the most in flight at once,
+the time and discover's peak RSS (the flood it replaced dropped 13 200 of
+20 000 axes, and took 1.27 GB and 42 s for 100 000).
+
+``--part network`` (or ``--network``) runs issue 34's attacks on what the
+server reads from elsewhere in a section of its own
 (``network_attacks``): Foxglove clients (tests/e2e/test_foxglove_limits.py),
 six concurrent exports of ten minutes of history (tests/e2e/test_export.py),
 forged records, keys and moves on a cluster's Redis (a real redis-server, a
 worker and a replica; tests/cluster/test_hostile_redis.py), and hostile
 recordings loaded for replay (tests/recording/test_hostile_recordings.py).
 
-Usage: ``python bench/hostile.py [--rounds 3 | --quick] [--network | --all]``; writes
-docs/benchmarks.md.
+Usage: ``python bench/hostile.py [--rounds 3 | --quick] [--part clients|cells|discover|network]
+[--network | --all]``. Without a part: the clients', the cells' and discover's, written to one
+section of docs/benchmarks.md; ``--network``: the network's, to another; ``--all``: both.
+``--quick`` (one round, 2 000 axes, 100 000 samples) prints and writes no docs.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import json
 import os
+import re
 import statistics
+import subprocess
 import sys
 import tempfile
 import threading
+import time
+import urllib.request
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -41,7 +57,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(ROOT))
 from _report import markdown_table, publish  # noqa: E402
 
+from tests.conftest import free_port  # noqa: E402
+from tests.e2e import test_hostile_cells as cells  # noqa: E402
 from tests.e2e import test_limits as limits  # noqa: E402
+from tests.web._browser import mock_process, set_faults  # noqa: E402
 
 ATTACKS: list[tuple[str, Callable[[limits.Server], None]]] = [
     ("100 MB body, declared and streamed", limits.test_a_100_mb_body_is_refused_before_it_is_read),
@@ -72,11 +91,40 @@ ATTACKS: list[tuple[str, Callable[[limits.Server], None]]] = [
         limits.test_heavy_transformation_requests_are_bounded_and_the_stream_holds,
     ),
 ]
+CELL_ATTACKS: list[tuple[str, Callable[[limits.Server], None]]] = [
+    (
+        "cell saved with a source that cannot start (sample counter 2^70)",
+        cells.test_a_reload_that_cannot_start_keeps_the_sources_streaming,
+    ),
+    (
+        "cell saved as 400 kB of nested brackets, then a good one",
+        cells.test_deep_nesting_is_one_line_and_the_next_save_reloads,
+    ),
+    (
+        "cell saved with 100 000 robots (28 MB)",
+        lambda s: cells.test_huge_cells_are_refused_quickly_naming_the_limit(
+            s, 100_000, "cell.toml: (file): is "
+        ),
+    ),
+    (
+        "cell saved with 2 000 robots (0.6 MB)",
+        lambda s: cells.test_huge_cells_are_refused_quickly_naming_the_limit(
+            s, 2000, "cell.toml: robot: 2000 robots"
+        ),
+    ),
+]
 MARK_FPS = 45 / 50
 """Issue 20: during any one client's attack another viewer keeps 45 of its 50 frames/s..."""
 MARK_MIB = 20.0
 """...and the server's memory grows by 20 MB at most."""
 SAMPLE_S = 0.02
+AXES = (20_000, 100_000)
+QUICK_AXES = (2_000,)
+ERROR_RATE = 0.02
+LATENCY_S = 0.005
+PARTS = ("clients", "cells", "discover", "network")
+SECTION_PARTS = ("clients", "cells", "discover")
+"""The parts of the section ``bench/hostile.py``; ``network`` has a section of its own."""
 
 
 class PeakRss(threading.Thread):
@@ -96,8 +144,12 @@ class PeakRss(threading.Thread):
 def measure(
     server: limits.Server, attack: Callable[[limits.Server], None]
 ) -> tuple[float, float, float, str]:
-    """One attack: (frames/s, peak RSS growth MiB, RSS growth after it MiB, note)."""
+    """One attack: (frames/s, peak RSS growth MiB, RSS growth after it MiB, note).
+
+    An attack of several steps (a bad save, then a good one) reports its worst window.
+    """
     before = server.rss_mib()
+    windows = len(server.windows)
     sampler = PeakRss(server)
     sampler.start()
     note = ""
@@ -108,60 +160,8 @@ def measure(
     finally:
         sampler.done.set()
         sampler.join()
-    fps, _, left = server.windows[-1]
-    return fps, sampler.peak - before, left, note
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--rounds", type=int, default=3, help="times each attack runs")
-    parser.add_argument("--quick", action="store_true", help="one round")
-    parser.add_argument(
-        "--network", action="store_true", help="only the Redis, Foxglove, export, replay attacks"
-    )
-    parser.add_argument("--all", action="store_true", help="the clients' and the network's")
-    args = parser.parse_args()
-    rounds = 1 if args.quick else args.rounds
-    if args.network or args.all:
-        network_attacks(rounds, args.quick)
-        if not args.all:
-            return
-    load_before = os.getloadavg()
-    with tempfile.TemporaryDirectory() as tmp, limits.limits_server(Path(tmp) / "log") as server:
-        quiet = server.quiet_fps
-        rows = attack_rows(server, ATTACKS, rounds)
-    load = ", ".join(f"{x:.1f}" for x in load_before)
-    body = (
-        f"A protocol-2 viewer's frames messages per second during each attack (median and worst "
-        f"of {rounds}), against {quiet:.1f}/s before any attack (the source's rate is 50/s). "
-        "Server RSS in MiB: the most it grew during the attack (sampled every 20 ms) and what "
-        "was left once it was over. *Mark*: issue 20's bound, the worst round at 45/50 of the "
-        "quiet rate or better and at most 20 MB more memory. The tests require only a third of "
-        f"the quiet rate. Load average before the run {load}: the 2 cores are shared with "
-        "other work, so a 'no' on frame rate may be the machine's, not the attack's. The viewer "
-        "runs in this process, the server in its own; the 20 heavy requests come from a third "
-        "process. Chromium is not involved.\n\n"
-        + markdown_table(
-            [
-                "attack",
-                "frames/s",
-                "worst",
-                "share of quiet",
-                "RSS peak",
-                "RSS after",
-                "mark",
-                "",
-            ],
-            rows,
-        )
-    )
-    publish("bench/hostile.py", "Hostile clients: a viewer's frame rate, the server's memory", body)
-
-
-# -- issue 34: what the server reads from elsewhere (Redis, Foxglove clients, exports, files) --
-
-NETWORK = "bench/hostile.py --network"
-REDIS_SOURCES = 4
+    fps = min((w[0] for w in server.windows[windows:]), default=0.0)
+    return fps, sampler.peak - before, server.rss_mib() - before, note
 
 
 def attack_rows(
@@ -196,13 +196,178 @@ def row(
     ]
 
 
+def discover_row(axes: int, folder: Path) -> list[str]:
+    """``python -m server discover`` against the mock with ``axes`` more axes, 2 % failing."""
+    with mock_process(free_port(), folder / f"mock{axes}.log", "--axes", str(axes)) as url:
+        # Latency: each request waits at the mock, so the ones sent together are in flight
+        # together (answered at once, the mock would never hold two).
+        set_faults(url, error_rate=ERROR_RATE, latency_s=LATENCY_S)
+        env = {**os.environ, "LINKVIEW_CTRLX_PASSWORD": "boschrexroth"}
+        start = time.monotonic()
+        out, printed = folder / f"cell{axes}.toml", folder / f"discover{axes}.txt"
+        with printed.open("w") as listing_file:  # a file: a pipe would fill and stall it
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "server", "discover", url, "-o", str(out), "--force"],
+                cwd=ROOT,
+                env=env,
+                stdout=listing_file,
+                stderr=subprocess.STDOUT,
+            )
+            peak = 0.0
+            try:
+                while proc.poll() is None:  # the high-water mark, read until it exits
+                    peak = max(peak, _hwm_mib(proc.pid))
+                    time.sleep(SAMPLE_S)
+            finally:
+                if proc.poll() is None:  # interrupted: leave no process behind
+                    proc.kill()
+                    proc.wait()
+        listing = printed.read_text()
+        seconds = time.monotonic() - start
+        with urllib.request.urlopen(f"{url}/mock/stats", timeout=10) as response:
+            stats = json.loads(response.read())
+    found = re.search(r": (\d+) axes, ", listing)
+    dropped = sum(line.startswith("  not read: axis ") for line in listing.splitlines())
+    return [
+        f"{axes:,} + 11",
+        found.group(1) if found else f"exit {proc.returncode}",
+        str(dropped),
+        f"{stats['requests']:,}",
+        str(stats["most_in_flight"]),
+        f"{seconds:.1f}",
+        f"{peak:.0f}",
+    ]
+
+
+def _imports_mib() -> float:
+    """The high-water mark of a Python that has loaded what ``discover`` loads (MiB)."""
+    code = (
+        "import resource, server.__main__, server.discover.cli, server.discover.starter; "
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    return int(done.stdout) / 1024
+
+
+def _hwm_mib(pid: int) -> float:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--rounds", type=int, default=3, help="times each attack runs")
+    parser.add_argument(
+        "--quick", action="store_true", help="one round, discover 2 000 axes; no docs written"
+    )
+    parser.add_argument(
+        "--part",
+        action="append",
+        choices=PARTS,
+        help="run only this part (repeatable; default: all but network): the clients' "
+        "attacks, the cell files', discover's, the network's (Redis, Foxglove, exports, replay)",
+    )
+    parser.add_argument("--network", action="store_true", help="the same as --part network")
+    parser.add_argument("--all", action="store_true", help="every part, network's included")
+    args = parser.parse_args()
+    rounds = 1 if args.quick else args.rounds
+    parts = list(PARTS) if args.all else (args.part or []) + ["network"] * args.network
+    parts = parts or list(SECTION_PARTS)
+    if "network" in parts:
+        network_attacks(rounds, args.quick)
+        if not set(parts) & set(SECTION_PARTS):
+            return
+    load_before = os.getloadavg()
+    rows: list[list[str]] = []
+    quiet = cell_quiet = baseline = float("nan")
+    found: list[list[str]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        if "clients" in parts:
+            with limits.limits_server(Path(tmp) / "log") as server:
+                quiet = server.quiet_fps
+                rows += attack_rows(server, ATTACKS, rounds)
+        if "cells" in parts:
+            with cells.cell_server(Path(tmp) / "cells") as server:
+                cell_quiet = server.quiet_fps
+                rows += attack_rows(server, CELL_ATTACKS, rounds)
+        if "discover" in parts:
+            sizes = QUICK_AXES if args.quick else AXES
+            found = [discover_row(n, Path(tmp)) for n in sizes]
+            baseline = _imports_mib()
+    load = ", ".join(f"{x:.1f}" for x in load_before)
+    body = (
+        f"A protocol-2 viewer's frames messages per second during each attack (median and worst "
+        f"of {rounds}), against {quiet:.1f}/s before any attack (the source's rate is 50/s). "
+        "Server RSS in MiB: the most it grew during the attack (sampled every 20 ms) and what "
+        "was left once it was over. *Mark*: issue 20's bound, the worst round at 45/50 of the "
+        "quiet rate or better and at most 20 MB more memory. The tests require only a third of "
+        f"the quiet rate. Load average before the run {load}: the 2 cores are shared with "
+        "other work, so a 'no' on frame rate may be the machine's, not the attack's. The viewer "
+        "runs in this process, the server in its own; the 20 heavy requests come from a third "
+        "process. Chromium is not involved. The cell attacks (issue 34) hit a second server, "
+        f"serving two embedded mocks from a cell file ({cell_quiet:.1f} frames messages/s quiet, "
+        "one per source and sample), and are shares of that rate; each saves the file whole "
+        "(renamed over it, as editors do), waits for the server's answer in /api/health, and "
+        "saves the good file again; its worst window is reported.\n\n"
+        + markdown_table(
+            [
+                "attack",
+                "frames/s",
+                "worst",
+                "share of quiet",
+                "RSS peak",
+                "RSS after",
+                "mark",
+                "",
+            ],
+            rows,
+        )
+        + "\n\n`python -m server discover` against the mock ctrlX with that many more axes "
+        f"(six to a group) besides its 11, {ERROR_RATE:.0%} of its requests answered 500, each "
+        f"answered after {LATENCY_S * 1000:g} ms; discover runs in its own process and writes "
+        "the cell (tomlkit). *In flight*: the most requests the mock answered at once. Peak "
+        f"RSS: discover's high-water mark; Python with its modules loaded holds {baseline:.0f}. "
+        "Before (issue 34): every request at once; 20 000 axes lost 13 200 of them to its own "
+        "timeouts, 100 000 took 1.27 GB and 42 s and lost 93 855.\n\n"
+        + markdown_table(
+            [
+                "axes served",
+                "axes found",
+                "named as not read",
+                "requests",
+                "in flight (most)",
+                "time (s)",
+                "peak RSS (MiB)",
+            ],
+            found,
+        )
+    )
+    title = "Hostile clients: a viewer's frame rate, the server's memory"
+    if args.quick or not set(SECTION_PARTS) <= set(parts):  # one round, or some parts: no docs
+        print(body)
+    else:
+        publish("bench/hostile.py", title, body)
+
+
+# -- issue 34: what the server reads from elsewhere (Redis, Foxglove clients, exports, files) --
+
+NETWORK = "bench/hostile.py --network"
+REDIS_SOURCES = 4
+
+
 def _run(coroutine: Any) -> None:
     asyncio.run(coroutine)
 
 
 def foxglove_rows(rounds: int, folder: Path) -> list[list[str]]:
     """The Foxglove endpoint's attacks, on a server with ``--foxglove`` (token set)."""
-    from tests.conftest import free_port
     from tests.e2e import test_foxglove_limits as fox
 
     port = free_port()
@@ -253,7 +418,6 @@ def redis_rows(rounds: int, folder: Path) -> list[list[str]]:
     """Forged records, keys and moves on a cluster's Redis, a viewer on the replica."""
     from tests.cluster import _roles as roles
     from tests.cluster import test_hostile_redis as forge
-    from tests.conftest import free_port
 
     redis_server = roles.RedisServer(folder / "redis", free_port())
     redis_server.start()
@@ -401,7 +565,8 @@ def replay_rows(quick: bool, folder: Path) -> list[list[str]]:
 
 
 def network_attacks(rounds: int, quick: bool) -> None:
-    """Issue 34's attacks, one section: the viewer's rate and memory, and the recordings."""
+    """Issue 34's attacks, one section: the viewer's rate and memory, and the recordings
+    (printed only, in quick runs)."""
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -432,7 +597,10 @@ def network_attacks(rounds: int, quick: bool) -> None:
         "meanwhile (MiB; numpy's arrays included), and what came of it.\n\n"
         + markdown_table(["recording", "MB", "s", "traced MiB", "outcome"], files)
     )
-    publish(NETWORK, "Hostile Redis writers, Foxglove clients, exports and recordings", body)
+    if quick:
+        print(body)
+    else:
+        publish(NETWORK, "Hostile Redis writers, Foxglove clients, exports and recordings", body)
 
 
 if __name__ == "__main__":

@@ -17,13 +17,15 @@ from pathlib import Path
 import uvicorn
 from pydantic import ValidationError
 
-from .cell import CellError, load_cell
+from .cell import Cell, CellError, load_cell
+from .cell.load import unreadable
 from .cluster import broker_settings, run_worker
 from .config import Settings
 from .hosts import HostPolicy, is_loopback
 from .logs import setup_logging
-from .runtime.startup import configured_cell, source_defaults
-from .text import plural
+from .runtime.source import SourceDefaults
+from .runtime.startup import configured_cell, history_problems, source_defaults
+from .text import plural, printable
 from .web import create_app
 from .web.listen import ListenError, browser_urls, listen
 from .web.serve import server_config
@@ -157,13 +159,24 @@ def parse_settings(argv: list[str] | None = None, worker: bool = False) -> Setti
 
 
 def check(argv: list[str]) -> int:
-    """Check cell files: one line per robot and its warnings, or every mistake; the exit status."""
+    """Check cell files: one line per robot and its warnings, or every mistake; the exit status.
+
+    History bounds use the ``LINKVIEW_*`` settings (``LINKVIEW_HISTORY_S``), as the server would.
+    """
     parser = argparse.ArgumentParser(prog="python -m server check", description=check.__doc__)
     parser.add_argument("files", nargs="+", metavar="FILE", help="cell files to check")
+    files = parser.parse_args(argv).files
+    try:
+        defaults = source_defaults(Settings(**{}))  # the environment's, as the server reads it
+    except ValidationError as exc:
+        settings = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
+        print(f"linkview: the server would not start with these settings ({settings}); "
+              "checking with the defaults", file=sys.stderr)  # fmt: skip
+        defaults = SourceDefaults()
     status = 0
-    for name in parser.parse_args(argv).files:
+    for name in files:
         try:
-            cell = load_cell(Path(name), stand_ins=False)  # a missing URDF is a mistake here
+            cell = checked_cell(Path(name), defaults)
         except CellError as exc:
             print(exc, file=sys.stderr)
             status = 1
@@ -173,10 +186,27 @@ def check(argv: list[str]) -> int:
             meshes = plural(count, "mesh", "meshes") if count else "no meshes"
             joints = plural(len(robot.joints), "joint")
             where = f"source {robot.source}"
-            print(f"{name}: {robot.name}: {robot.family}, {joints}, {where}, {meshes}")
+            print(printable(f"{name}: {robot.name}: {robot.family}, {joints}, {where}, {meshes}"))
             for warning in robot.warnings:
-                print(f"{name}: {robot.name}: warning: {warning}")
+                print(printable(f"{name}: {robot.name}: warning: {warning}"))
     return status
+
+
+def checked_cell(path: Path, defaults: SourceDefaults) -> Cell:
+    """The cell at ``path`` if the server could run it; CellError, one line per mistake, else.
+
+    Whatever else goes wrong (a file no check foresaw) is one line too, never a traceback.
+    """
+    try:
+        cell = load_cell(path, stand_ins=False)  # a missing URDF is a mistake here
+    except CellError:
+        raise
+    except Exception as exc:
+        raise unreadable(path, exc) from exc
+    problems = history_problems(cell, defaults)
+    if problems:
+        raise CellError(path, problems)
+    return cell
 
 
 def discover(argv: list[str]) -> int:

@@ -62,7 +62,8 @@ class Settings(BaseSettings):
     """How long an embedded mock holds a commanded pose before its demo cycle resumes."""
     # Look back (docs/recording.md).
     history_s: float = Field(600.0, gt=0.0, le=86_400.0)
-    """Seconds of samples every source keeps for the timeline (memory is allocated up front)."""
+    """Seconds of samples every source keeps for the timeline (memory grows with them, up to a
+    bound ``check`` enforces: ``server.history.store.MAX_BYTES``)."""
     record: Path | None = None
     """Folder to record every source to, as MCAP files (one per hour or 500 MB)."""
     replay: Path | None = None

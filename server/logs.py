@@ -5,12 +5,28 @@ from __future__ import annotations
 import logging
 import time
 
+from .text import printable
+
 FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
+
+
+class PlainFormatter(logging.Formatter):
+    """Each line of a record with its control characters escaped (``server.text.printable``).
+
+    Log messages quote what devices and files say (a Problem's detail, a node
+    name); an ANSI escape there must not reach the terminal reading the log.
+    Lines stay lines: a traceback or a list of cell mistakes reads as before.
+    """
+
+    def format(self, record: logging.LogRecord) -> str:
+        return "\n".join(map(printable, super().format(record).split("\n")))
 
 
 def setup_logging(level: int = logging.INFO) -> None:
     """Log to stderr with timestamps; passwords and tokens are never passed to loggers."""
-    logging.basicConfig(level=level, format=FORMAT)
+    handler = logging.StreamHandler()
+    handler.setFormatter(PlainFormatter(FORMAT))
+    logging.basicConfig(level=level, handlers=[handler])
 
 
 class Throttled:

@@ -16,6 +16,7 @@ import tomllib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from ..ctrlx import check_base_url, client_ssl
 from ..kinematics import pose7_from_matrix
@@ -25,10 +26,11 @@ from ..opcua import check_opcua_url, load_certificates
 from ..protocol import RobotInfo
 from ..rtde.wire import check_rtde_url, parse_key, register_key
 from ..sandbox import Limits
-from ..text import plural
+from ..text import plural, printable
 from . import schema
 from ._validate import Validated, validate
 from .families import Built, SpecError, Where, build, pose_matrix
+from .limits import MAX_FILE_BYTES, file_problem, node_problems, shape_problems
 from .mesh_files import glb_problem
 from .placeholder import missing_description, placeholder
 from .robot import Joint, Robot
@@ -99,7 +101,19 @@ class CellError(Exception):
     def __init__(self, path: Path, problems: list[tuple[str, str]]) -> None:
         self.path = path
         self.problems = problems
-        super().__init__("\n".join(f"{path}: {key}: {reason}" for key, reason in problems))
+        super().__init__("\n".join(f"{path}: {key}: {_line(reason)}" for key, reason in problems))
+
+
+def unreadable(path: Path, exc: Exception) -> CellError:
+    """The CellError for a file that raised what no check foresaw: one line, not a traceback
+    (``check``, start-up and reload show it; the log keeps the traceback)."""
+    return CellError(path, [("(file)", f"cannot be read: {type(exc).__name__}: {exc}")])
+
+
+def _line(text: str) -> str:
+    """A reason on one line, control characters escaped: one line per mistake, whatever a
+    library's message (lxml, xacro) or the file's own text holds."""
+    return printable(" / ".join(part.strip() for part in text.splitlines() if part.strip()))
 
 
 @dataclass(frozen=True)
@@ -193,14 +207,10 @@ def load_cell(
     """
     env = os.environ if env is None else env
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8") if text is None else text)
-    except FileNotFoundError:
-        raise CellError(path, [("(file)", "no such file")]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CellError(path, [("(file)", f"cannot read it: {exc}")]) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
+    raw = _parsed(path, text)
+    too_big = shape_problems(raw)
+    if too_big:  # before the schema: 100 000 robots would take minutes to validate
+        raise CellError(path, too_big)
     try:
         limits = Limits.from_env(env)
     except ValueError as exc:
@@ -209,6 +219,31 @@ def load_cell(
     if stand_ins is None:
         stand_ins = raw.get("allow_edits") is True
     return _Builder(path, validate(raw), env, where, stand_ins).cell()
+
+
+def _parsed(path: Path, text: str | None = None) -> dict[str, Any]:
+    """The TOML of ``path`` (or ``text``, its contents as edited), read no further than
+    ``MAX_FILE_BYTES``; CellError otherwise."""
+    try:
+        if text is None:
+            with path.open("rb") as file:
+                data = file.read(MAX_FILE_BYTES + 1)
+                size = max(len(data), os.fstat(file.fileno()).st_size)
+        else:
+            data = text.encode("utf-8")
+            size = len(data)
+        too_big = file_problem(size)
+        if too_big is not None:
+            raise CellError(path, [("(file)", too_big)])
+        return tomllib.loads(data.decode("utf-8"))
+    except FileNotFoundError:
+        raise CellError(path, [("(file)", "no such file")]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CellError(path, [("(file)", f"cannot read it: {exc}")]) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise CellError(path, [("(file)", f"not valid TOML: {exc}")]) from None
+    except RecursionError:  # tomllib parses nested arrays and tables by recursion
+        raise CellError(path, [("(file)", "nests tables or arrays too deeply to read")]) from None
 
 
 class _Builder:
@@ -251,10 +286,20 @@ class _Builder:
             built = self._robot(i, robot)
             if built is not None:
                 robots.append(built)
+        self._count_nodes(robots)
         if self.problems:
             raise CellError(self.path, sorted(self.problems, key=_file_order))
         assert self.valid.cell is not None  # no problems: the file passed the schema whole
         return Cell(self.path, tuple(s for s in sources if s), tuple(robots), self.valid.cell)
+
+    def _count_nodes(self, robots: list[Robot]) -> None:
+        """Every source's nodes, and the cell's, against ``limits``."""
+        nodes: dict[str, set[str]] = {}
+        for robot in robots:
+            nodes.setdefault(robot.source, set()).update(robot.nodes, robot.setpoint_nodes)
+        keys = {name: self._key("source", i) for i, name in self.valid.names["source"].items()}
+        counts = [(keys.get(name, f"source {name!r}"), len(n)) for name, n in nodes.items()]
+        self.problems += node_problems(counts, sum(len(n) for n in nodes.values()))
 
     def _key(self, section: str, index: int, rest: str = "") -> str:
         return self.valid.label(section, index) + rest

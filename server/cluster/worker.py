@@ -96,9 +96,17 @@ class Worker(Runtime):
         return self.hub
 
     async def apply(self, cell: Cell) -> None:
-        """A new cell file: keep following the sources held that it still has."""
-        self.whole = cell
-        await self.hold([s for s in self.held if any(c.name == s for c in cell.sources)])
+        """A new cell file: keep following the sources held that it still has.
+
+        Where it cannot start, the sources held run on (``Runtime.apply``) and so
+        does the cell they came from: a lease taken later starts from that one.
+        """
+        previous, self.whole = self.whole, cell
+        try:
+            await self.hold([s for s in self.held if any(c.name == s for c in cell.sources)])
+        except BaseException:
+            self.whole = previous
+            raise
 
     async def hold(self, names: list[str]) -> None:
         """Follow exactly the sources ``names`` (stopping, starting what changes)."""

@@ -45,7 +45,7 @@ class JointMapping(_Change):
 
 
 class JointReads(_Change):
-    """"This joint reads ``value`` (rad or m) now": the offset that makes it so."""
+    """ "This joint reads ``value`` (rad or m) now": the offset that makes it so."""
 
     op: Literal["joint_reads"]
     joint: Name

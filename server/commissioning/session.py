@@ -179,7 +179,7 @@ class CellEditor:
                     cell = await asyncio.to_thread(self._load, path, after)
                 except CellError as exc:
                     raise CommissioningError(422, self.runtime.cell.shown(str(exc))) from None
-                await self.runtime.apply(cell)
+                await self._run(cell, "the change")
                 changes = 1 if self.draft is None else self.draft.changes + 1
                 self.draft = None if after == on_disk else Draft(after, digest(on_disk), changes)
                 log.info("cell %s: changed from the page (not saved)", path.name)
@@ -211,14 +211,25 @@ class CellEditor:
         path = self._path()
         async with self._lock:
             if self.draft is not None:
-                self.draft = None
                 try:
                     cell = await asyncio.to_thread(self._load, path, None)
                 except CellError as exc:
                     self.runtime.reject(str(exc))
                 else:
-                    await self.runtime.apply(cell)
+                    # Kept unless the file's cell runs: the changes are what still runs.
+                    await self._run(cell, "the cell file as saved")
+                self.draft = None
         return await self.status()
+
+    async def _run(self, cell: Cell, what: str) -> None:
+        """Run ``cell``; where it cannot start, the running cell goes on (``Runtime.apply``)
+        and the page is told why (422), not left with a server error."""
+        try:
+            await self.runtime.apply(cell)
+        except Exception as exc:
+            log.exception("cell %s: %s cannot run", cell.path, what)
+            reason = f"{what} cannot run ({type(exc).__name__}: {exc}); the running cell goes on"
+            raise CommissioningError(422, self.runtime.cell.shown(reason)) from None
 
     async def undo(self) -> dict[str, Any]:
         """Put the file before the last save back (and keep the newer one as the backup)."""

@@ -6,10 +6,11 @@ from .client import BulkRead, Credentials, DataLayerClient, Traffic
 from .connector import CtrlxConnector
 from .events import SubscriptionSettings
 from .follow import MODES, REPROBE_S, Mode, follow, follow_into
-from .interruptions import RetryPolicy
-from .paths import encode_node_path
+from .interruptions import RetryPolicy, transient
+from .paths import encode_node_path, name_problem, node_problem
 from .problem import (
     AuthError,
+    BadAddress,
     BadValue,
     DataLayerError,
     NodeNotFound,
@@ -28,6 +29,7 @@ __all__ = [
     "REPROBE_S",
     "ApiVersion",
     "AuthError",
+    "BadAddress",
     "BadValue",
     "BulkRead",
     "Credentials",
@@ -54,5 +56,8 @@ __all__ = [
     "filetime_from_unix",
     "follow",
     "follow_into",
+    "name_problem",
+    "node_problem",
+    "transient",
     "unix_from_filetime",
 ]

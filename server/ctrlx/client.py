@@ -17,11 +17,11 @@ from ..lateness import PatientTimeout
 from .auth import API_PATHS, ApiPaths, ApiVersion, TokenManager
 from .bodies import NOT_JSON, Answer, decode, read_bounded
 from .connection import connection_error
-from .paths import encode_node_path
-from .problem import DataLayerError, ProblemError, Unsupported, problem_for_status
+from .paths import encode_node_path, node_problem
+from .problem import BadAddress, DataLayerError, ProblemError, Unsupported, problem_for_status
 from .redact import Redactor
 from .tls import ca_context, peer_certificate
-from .values import BulkRead, bulk_values, number_from_data, numbers_from_data
+from .values import BulkRead, bulk_data, bulk_values, number_from_data, numbers_from_data
 
 log = logging.getLogger(__name__)
 
@@ -377,7 +377,10 @@ class DataLayerClient:
     # -- nodes ---------------------------------------------------------------
 
     def node_url_path(self, node: str) -> str:
-        """The request path of ``node`` (each segment percent-encoded)."""
+        """The request path of ``node`` (each segment percent-encoded); BadAddress if refused."""
+        problem = node_problem(node)
+        if problem is not None:
+            raise BadAddress(f"{node!r}: not requested: {problem}")
         return self.paths.nodes + encode_node_path(node)
 
     async def read(self, node: str) -> Any:
@@ -423,22 +426,35 @@ class DataLayerClient:
         A node that fails holds its error; raises Unsupported if the server has
         no bulk service.
         """
-        if self.paths.bulk is None or self.capabilities.bulk is False:
-            raise Unsupported("this data layer has no bulk service")
-        try:
-            body = [{"address": n} for n in nodes]
-            entries = await self.request("PUT", self.paths.bulk, params={"type": "read"}, json=body)
-        except ProblemError as exc:
-            if exc.status in REFUSED:
-                self.capabilities.bulk = False
-                raise Unsupported(f"bulk read refused: {exc}") from None
-            raise
-        self.capabilities.bulk = True
-        read = bulk_values(nodes, entries)
+        read = bulk_values(nodes, await self._bulk("read", nodes))
         for value in read.values.values():
             if isinstance(value, Exception):
                 self.redact.error(value)
         return read
+
+    async def bulk(self, kind: str, nodes: list[str]) -> list[Any]:
+        """Each node's Data (``{"type", "value"}``) from one ``PUT .../bulk?type=<kind>``
+        (``read``, ``metadata``, ``browse``); a node that failed holds its ProblemError.
+
+        Raises Unsupported if the server has no bulk service.
+        """
+        entries = await self._bulk(kind, nodes)
+        return [self.redact.error(e) if isinstance(e, Exception) else e
+                for e in bulk_data(nodes, entries)]  # fmt: skip
+
+    async def _bulk(self, kind: str, nodes: list[str]) -> Any:
+        if self.paths.bulk is None or self.capabilities.bulk is False:
+            raise Unsupported("this data layer has no bulk service")
+        try:
+            body = [{"address": n} for n in nodes]
+            entries = await self.request("PUT", self.paths.bulk, params={"type": kind}, json=body)
+        except ProblemError as exc:
+            if exc.status in REFUSED:
+                self.capabilities.bulk = False
+                raise Unsupported(f"bulk {kind} refused: {exc}") from None
+            raise
+        self.capabilities.bulk = True
+        return entries
 
 
 def _answer(resp: aiohttp.ClientResponse, raw: bytes) -> Answer:

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from ..lateness import Mark, lateness
 from ..text import plural
 from .client import DataLayerClient
-from .problem import AuthError, DataLayerError, ProblemError, Unsupported
+from .problem import AuthError, BadAddress, DataLayerError, ProblemError, Unsupported
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +64,7 @@ class Interruptions:
 
 def transient(exc: DataLayerError) -> bool:
     """True for failures that may pass by themselves (network, timeouts, 5xx, closed streams)."""
-    if isinstance(exc, AuthError | Unsupported):
+    if isinstance(exc, AuthError | Unsupported | BadAddress):
         return False
     if isinstance(exc, ProblemError):
         return exc.status >= 500 or exc.status in (408, 429)

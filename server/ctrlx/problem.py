@@ -65,6 +65,10 @@ class BadValue(DataLayerError):
     """A node answered with a value we cannot use (not a number, wrong type)."""
 
 
+class BadAddress(DataLayerError):
+    """A node address we refuse to request (it would leave the nodes API); never retried."""
+
+
 class Unsupported(DataLayerError):
     """The server lacks a service (subscriptions, bulk): older firmware, or switched off."""
 

@@ -83,25 +83,31 @@ class BulkRead:
     values: dict[str, float | Exception]
 
 
-def bulk_values(nodes: list[str], entries: Any) -> BulkRead:
-    """The values of a bulk read answer; a node that failed holds its error."""
+def bulk_data(nodes: list[str], entries: Any) -> list[Any]:
+    """Each node's entry of a bulk answer (a Data-like ``{"type", "value", ...}``), or its error."""
     if not isinstance(entries, list) or len(entries) != len(nodes):
-        raise DataLayerError(f"bulk read answered {type(entries).__name__}, not {len(nodes)} items")
-    values: dict[str, float | Exception] = {}
-    stamps: list[float] = []
+        raise DataLayerError(f"bulk answer is {type(entries).__name__}, not {len(nodes)} items")
+    out: list[Any] = []
     for node, entry in zip(nodes, entries, strict=True):
         if not isinstance(entry, dict):
-            values[node] = DataLayerError(f"{node}: bulk answer item is not an object")
+            out.append(DataLayerError(f"{node}: bulk answer item is not an object"))
             continue
-        stamp = parse_filetime(entry.get("timestamp"))
-        if stamp is not None:
-            stamps.append(stamp)
         result = str(entry.get("result", "DL_OK"))
         if result != "DL_OK" or entry.get("type") == "error":
-            values[node] = problem_for_result(node, result, entry.get("value"))
+            out.append(problem_for_result(node, result, entry.get("value")))
             continue
+        out.append(entry)
+    return out
+
+
+def bulk_values(nodes: list[str], entries: Any) -> BulkRead:
+    """The values of a bulk read answer; a node that failed holds its error."""
+    values: dict[str, float | Exception] = {}
+    for node, entry in zip(nodes, bulk_data(nodes, entries), strict=True):
         try:
-            values[node] = number_from_data(node, entry)
+            values[node] = entry if isinstance(entry, Exception) else number_from_data(node, entry)
         except DataLayerError as exc:
             values[node] = exc
-    return BulkRead(max(stamps) if stamps else None, values)
+    stamps = [parse_filetime(e.get("timestamp")) for e in entries if isinstance(e, dict)]
+    known = [stamp for stamp in stamps if stamp is not None]
+    return BulkRead(max(known) if known else None, values)

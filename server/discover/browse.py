@@ -13,20 +13,29 @@ nodes (see ``server.mock_ctrlx._motion_nodes`` for the mock's copy):
   (``mcs.axsTrafoSets``: ``jntTrafo`` and parameters with units).
 
 Whatever cannot be read is noted in ``Controller.notes`` and left out; a
-controller without a motion app has no axes.
+controller without a motion app has no axes. Names the controller lists are
+requested only if each is one plain node segment (``server.ctrlx.name_problem``):
+an axis named ``../../x`` would otherwise send our token to another path.
+Requests go a few at a time, in bulk where the data layer has it (``ask``).
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
-from ..ctrlx import DataLayerClient, DataLayerError, NodeNotFound
+from ..ctrlx import DataLayerClient, DataLayerError, NodeNotFound, name_problem
+from ..ctrlx.values import number_from_data
+from .ask import CHUNK, CONCURRENCY, Asker, in_turn
 
 AXES, KINEMATICS = "motion/axs", "motion/kin"
 ACTUAL_POS, SETPOINT_POS = "state/values/actual/pos", "state/values/ipo/pos"
+AXIS_OBJECTS = ("cfg/properties", "cfg/lim")
+"""Object nodes read for every axis: ``axsType``, and the limits."""
+ACTUAL_OBJECT = "state/values/actual"
+"""Read where the position's metadata gives no unit: its ``actualPosUnit``."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +67,9 @@ class Kinematics:
     """Transformation parameter -> (value, unit)."""
 
 
+Found = TypeVar("Found", "Axis", "Kinematics")
+
+
 @dataclass(frozen=True)
 class Controller:
     """Everything ``describe`` found."""
@@ -69,99 +81,156 @@ class Controller:
     """What could not be read, one line each."""
 
 
-async def describe(client: DataLayerClient) -> Controller:
+async def describe(client: DataLayerClient, concurrency: int = CONCURRENCY) -> Controller:
     """Browse ``client``'s data layer for its motion axes and kinematics.
 
-    Raises DataLayerError only when the controller cannot be used at all
-    (unreachable, wrong credentials); a missing node becomes a note.
+    At most ``concurrency`` requests are in flight (``ask``). Raises
+    DataLayerError only when the controller cannot be used at all
+    (unreachable, wrong credentials); whatever else cannot be read, or is
+    refused (a name that is not one plain node segment), becomes a note.
     """
+    ask = Asker(client, concurrency)
     notes: list[str] = []
-    names = await _browse(client, AXES, notes, "no motion axes (is the motion app installed?)")
-    axes = await asyncio.gather(*(_axis(client, name, notes) for name in names))
-    kin_names = await _browse(client, KINEMATICS, notes, None)
-    kinematics = await asyncio.gather(*(_kinematics(client, name, notes) for name in kin_names))
-    found = tuple(a for a in axes if a is not None)
-    return Controller(client.base_url, found, tuple(k for k in kinematics if k), tuple(notes))
+    names = await _names(ask, AXES, "axis", notes, "no motion axes (is the motion app installed?)")
+    axes = await _in_chunks(names, lambda part: _axes(ask, part), notes, concurrency)
+    kin_names = await _names(ask, KINEMATICS, "kinematics", notes, None)
+    kinematics = await _in_chunks(
+        kin_names, lambda part: _kinematics(ask, part), notes, concurrency
+    )
+    return Controller(client.base_url, tuple(axes), tuple(kinematics), tuple(notes))
 
 
-async def _browse(
-    client: DataLayerClient, node: str, notes: list[str], missing: str | None
+async def _in_chunks(
+    names: list[str],
+    read: Callable[[list[str]], Awaitable[tuple[list[Found], list[str]]]],
+    notes: list[str],
+    concurrency: int,
+) -> list[Found]:
+    """``read`` each chunk of ``names``, a few at a time; results and notes in name order."""
+    chunks = [names[i : i + CHUNK] for i in range(0, len(names), CHUNK)]
+    results: dict[int, tuple[list[Found], list[str]]] = {}
+
+    async def one(index: int) -> None:
+        results[index] = await read(chunks[index])
+
+    await in_turn(range(len(chunks)), one, concurrency)
+    found: list[Found] = []
+    for index in range(len(chunks)):
+        found += results[index][0]
+        notes += results[index][1]
+    return found
+
+
+async def _names(
+    ask: Asker, node: str, what: str, notes: list[str], missing: str | None
 ) -> list[str]:
+    """The children of ``node`` that are plain node names; the others are noted, not asked for."""
     try:
-        return sorted(await client.browse(node))
+        listed = await ask.call(lambda: ask.client.browse(node))
     except NodeNotFound:
         if missing:
             notes.append(f"{node}: {missing}")
         return []
+    names = []
+    for name in sorted(set(listed)):
+        problem = name_problem(name)
+        if problem is None:
+            names.append(name)
+        else:
+            notes.append(f"{what} {name!r} left out: {problem}")
+    return names
 
 
-async def _axis(client: DataLayerClient, name: str, notes: list[str]) -> Axis | None:
-    base = f"{AXES}/{name}"
-    node = f"{base}/{ACTUAL_POS}"
-    try:
-        meta = await client.metadata(node)
-        value: float | None = await client.read_number(node)
-    except DataLayerError as exc:
-        notes.append(f"axis {name}: {node} cannot be read ({exc})")
-        return None
-    unit = _text(meta.get("unit")) or await _object_text(
-        client, f"{base}/state/values/actual", "actualPosUnit"
-    )
-    setpoint: str | None = f"{base}/{SETPOINT_POS}"
-    try:
-        await client.metadata(f"{base}/{SETPOINT_POS}")
-    except DataLayerError:
-        setpoint = None
-    properties = await _object(client, f"{base}/cfg/properties")
-    limits = await _object(client, f"{base}/cfg/lim")
-    kind = _text(properties.get("axsType"))
-    return Axis(
-        name=name,
-        node=node,
-        unit=unit,
-        kind=kind.upper() if kind else None,
-        value=value if value is not None and math.isfinite(value) else None,
-        setpoint=setpoint,
-        limits=(_number(limits.get("posMin")), _number(limits.get("posMax"))),
-    )
+async def _axes(ask: Asker, names: list[str]) -> tuple[list[Axis], list[str]]:
+    """The axes ``names`` (a chunk), read in a few bulk requests; and what could not be read."""
+    base = {name: f"{AXES}/{name}" for name in names}
+    actual = {name: f"{b}/{ACTUAL_POS}" for name, b in base.items()}
+    setpoint = {name: f"{b}/{SETPOINT_POS}" for name, b in base.items()}
+    meta = await ask.many("metadata", [*actual.values(), *setpoint.values()])
+    known = [name for name in names if not isinstance(meta[actual[name]], Exception)]
+    extra = [f"{base[name]}/{part}" for name in known for part in AXIS_OBJECTS]
+    data = await ask.many("read", [*(actual[name] for name in known), *extra])
+    # The unit from the position's metadata, else from its object node (a second, rarer read).
+    unitless = [name for name in known if not _text(_value(meta[actual[name]]).get("unit"))]
+    data |= await ask.many("read", [f"{base[name]}/{ACTUAL_OBJECT}" for name in unitless])
+    axes, notes = [], []
+    for name in names:
+        node = actual[name]
+        try:
+            value = number_from_data(node, _answer(data.get(node), meta[node]))
+        except DataLayerError as exc:
+            notes.append(f"axis {name}: {node} cannot be read ({exc})")
+            continue
+        unit = _text(_value(meta[node]).get("unit")) or _text(
+            _value(data.get(f"{base[name]}/{ACTUAL_OBJECT}")).get("actualPosUnit")
+        )
+        properties, limits = (_value(data[f"{base[name]}/{part}"]) for part in AXIS_OBJECTS)
+        kind = _text(properties.get("axsType"))
+        has_setpoint = not isinstance(meta[setpoint[name]], Exception)
+        axes.append(
+            Axis(
+                name=name,
+                node=node,
+                unit=unit,
+                kind=kind.upper() if kind else None,
+                value=value,
+                setpoint=setpoint[name] if has_setpoint else None,
+                limits=(_number(limits.get("posMin")), _number(limits.get("posMax"))),
+            )
+        )
+    return axes, notes
 
 
-async def _kinematics(client: DataLayerClient, name: str, notes: list[str]) -> Kinematics | None:
-    config = await _object(client, f"{KINEMATICS}/{name}/cfg")
-    entries = [e for e in config.get("axsCfg") or [] if isinstance(e, dict) and e.get("axsName")]
-    if not entries:
-        notes.append(f"kinematics {name}: {KINEMATICS}/{name}/cfg names no axes")
-        return None
-    entries.sort(key=_acs_index)
-    axes = tuple(str(e["axsName"]) for e in entries)
-    sets = (config.get("mcs") or {}).get("axsTrafoSets") or []
-    first = sets[0] if sets and isinstance(sets[0], dict) else {}
-    params: dict[str, tuple[float, str]] = {}
-    for group in (first.get("param") or {}).get("groups") or []:
-        for param in group.get("param") or [] if isinstance(group, dict) else []:
-            value = _number(param.get("valueDouble")) if isinstance(param, dict) else None
-            if value is not None and param.get("name"):
-                params[str(param["name"])] = (value, _text(param.get("unit")) or "")
-    return Kinematics(name, axes, _text(first.get("jntTrafo")), params)
+async def _kinematics(ask: Asker, names: list[str]) -> tuple[list[Kinematics], list[str]]:
+    """The kinematics ``names`` (a chunk) with their axes and joint transformation."""
+    nodes = {name: f"{KINEMATICS}/{name}/cfg" for name in names}
+    data = await ask.many("read", list(nodes.values()))
+    found, notes = [], []
+    for name, node in nodes.items():
+        config = _value(data[node])
+        entries = [e for e in _list(config.get("axsCfg")) if _text(_dict(e).get("axsName"))]
+        if not entries:
+            why = f"({data[node]})" if isinstance(data[node], Exception) else "names no axes"
+            notes.append(f"kinematics {name}: {node} {why}")
+            continue
+        entries.sort(key=_acs_index)
+        axes = tuple(str(e["axsName"]).strip() for e in entries)
+        sets = _list(_dict(config.get("mcs")).get("axsTrafoSets"))
+        first = _dict(sets[0]) if sets else {}
+        params: dict[str, tuple[float, str]] = {}
+        for group in _list(_dict(first.get("param")).get("groups")):
+            for param in map(_dict, _list(_dict(group).get("param"))):
+                value, key = _number(param.get("valueDouble")), _text(param.get("name"))
+                if value is not None and key:
+                    params[key] = (value, _text(param.get("unit")) or "")
+        found.append(Kinematics(name, axes, _text(first.get("jntTrafo")), params))
+    return found, notes
+
+
+def _answer(data: Any, meta: Any) -> Any:
+    """A node's read answer, or raise the error that kept it (its read's or its metadata's)."""
+    for answer in (meta, data):
+        if isinstance(answer, Exception):
+            raise answer if isinstance(answer, DataLayerError) else DataLayerError(str(answer))
+    return data
 
 
 def _acs_index(entry: dict[str, Any]) -> int:
     index = entry.get("acsIndex")
-    return index if isinstance(index, int) else 255  # the motion app's "none"
+    return index if isinstance(index, int) and not isinstance(index, bool) else 255  # "none"
 
 
-async def _object(client: DataLayerClient, node: str) -> dict[str, Any]:
-    """The value of an object node, or ``{}`` when it cannot be read."""
-    try:
-        body = await client.read(node)
-    except DataLayerError:
-        return {}
-    value = body.get("value") if isinstance(body, dict) else None
+def _value(body: Any) -> dict[str, Any]:
+    """The object value of a Data body, ``{}`` for anything else (an error, another type)."""
+    return _dict(_dict(body).get("value"))
+
+
+def _dict(value: Any) -> dict[str, Any]:
     return value if isinstance(value, dict) else {}
 
 
-async def _object_text(client: DataLayerClient, node: str, key: str) -> str | None:
-    return _text((await _object(client, node)).get(key))
+def _list(value: Any) -> list[Any]:
+    return value if isinstance(value, list) else []
 
 
 def _text(value: Any) -> str | None:

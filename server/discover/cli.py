@@ -12,8 +12,10 @@ from pydantic import ValidationError
 
 from ..config import Settings
 from ..ctrlx import Credentials, DataLayerClient, DataLayerError, client_ssl
+from ..text import printable
 from .browse import Controller, describe
 from .starter import SourceSpec, starter_cell
+from .writer import plain_name
 
 PASSWORD_ENV = "LINKVIEW_CTRLX_PASSWORD"
 
@@ -61,7 +63,7 @@ def main(argv: list[str]) -> int:
     try:
         controller = asyncio.run(_describe(settings))
     except DataLayerError as exc:
-        print(f"linkview: {settings.ctrlx_url}: {exc}", file=sys.stderr)
+        print(printable(f"linkview: {settings.ctrlx_url}: {exc}"), file=sys.stderr)
         return 1
     print(listing(controller))
     source = SourceSpec(
@@ -93,7 +95,11 @@ async def _describe(settings: Settings) -> Controller:
 
 
 def listing(controller: Controller) -> str:
-    """What was found, for people: axes with units and values, kinematics with their axes."""
+    """What was found, for people: axes with units and values, kinematics with their axes.
+
+    Every line passes ``printable``: what the controller says is shown, never obeyed by
+    the terminal (an ANSI escape in a unit cannot clear the screen or hide a line).
+    """
     lines = [
         f"{controller.url}: {len(controller.axes)} axes, {len(controller.kinematics)} kinematics"
     ]
@@ -109,9 +115,8 @@ def listing(controller: Controller) -> str:
         trafo = kin.trafo or "no joint transformation"
         lines.append(f"  kinematics {kin.name}: {trafo}; axes {', '.join(kin.axes)}")
     lines += [f"  not read: {note}" for note in controller.notes]
-    return "\n".join(lines)
+    return "\n".join(map(printable, lines))
 
 
 def _source_name(url: str) -> str:
-    host = urlsplit(url).hostname or "ctrlx"
-    return "".join(c if c.isalnum() or c in "_.-" else "_" for c in host)[:64]
+    return plain_name(urlsplit(url).hostname or "", "ctrlx")

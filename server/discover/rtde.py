@@ -6,8 +6,9 @@ not which arm is attached: the user names the model. The cell has one
 order, ``target_q`` as setpoint). Its kinematics is UR's description
 package (``ur_description``) where linkview's package search finds one
 above the cell file, and else UR's published DH table for the model, drawn
-without meshes (a ``TODO`` says so). The file is written with tomlkit:
-every value the device or the command line gave is a TOML string, escaped.
+without meshes (a ``TODO`` says so). The file is written by ``writer``:
+every value the device or the command line gave is a TOML string, escaped,
+and what it says in comments is one line.
 """
 
 from __future__ import annotations
@@ -15,24 +16,23 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
-import re
 import sys
 from pathlib import Path
 from typing import Any
 
-import tomlkit
 from tomlkit.items import Table
 
 from ..rtde import RtdeConnector, RtdeSettings
 from ..rtde.wire import rtde_address
 from ..sources import Sample, SourceError
+from ..text import printable
 from ..urdf._paths import Packages
 from .ur_models import MODELS, UrModel
+from .writer import CellDocument, comment, inline, plain_name, table
 
 DESCRIPTION_PACKAGE = "ur_description"
 DESCRIPTION_FILE = "urdf/ur.urdf.xacro"
 """UR's description package builds every arm from one xacro with the ``ur_type`` argument."""
-_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
 def main(argv: list[str]) -> int:
@@ -60,12 +60,12 @@ def main(argv: list[str]) -> int:
     try:
         device, sample = asyncio.run(_read(host, port))
     except SourceError as exc:
-        print(f"linkview: {exc}", file=sys.stderr)
+        print(printable(f"linkview: {exc}"), file=sys.stderr)
         return 1
     joints = [sample.values.get(f"actual_q[{i}]") for i in range(6)]
     shown = ", ".join(f"{q:.4f}" if isinstance(q, float) else "?" for q in joints)
-    print(f"rtde://{host}:{port}: {device}; actual_q [{shown}] rad")
-    name = args.source or _NAME.sub("_", host)[:64] or "ur"
+    print(printable(f"rtde://{host}:{port}: {device}; actual_q [{shown}] rad"))
+    name = args.source or plain_name(host, "ur")
     command = f"python -m server discover {args.url} --model {args.model}"
     text = starter_cell(args.url, name, MODELS[args.model], device, output, command)
     output.write_text(text, encoding="utf-8")
@@ -103,68 +103,43 @@ def starter_cell(
     url: str, source: str, model: UrModel, device: str, output: Path, command: str
 ) -> str:
     """The TOML text of the starter cell (see the module doc)."""
-    doc = tomlkit.document()
-    doc.add(tomlkit.comment(f"A starter cell written by `{_one_line(command)}`."))
-    doc.add(tomlkit.comment(f"The controller said: {_one_line(device)}."))
-    doc.add(
-        tomlkit.comment("Check it with `python -m server check FILE`; docs/cell.md has every key.")
+    cell = CellDocument(
+        f"A starter cell written by `{command}`.",
+        f"The controller said: {device}.",
+        "Check it with `python -m server check FILE`; docs/cell.md has every key.",
     )
-    doc.add(tomlkit.nl())
-    sources = tomlkit.aot()
-    src = tomlkit.table()
-    src.add("name", source)
-    src.add("type", "rtde")
-    src.add("url", url)
-    sources.append(src)
-    doc.add("source", sources)
-    robots = tomlkit.aot()
-    robot = tomlkit.table()
-    robot.add(
-        tomlkit.comment(
-            f"A Universal Robots {model.name.upper()}: RTDE does not say which "
-            "arm it is; this is the --model given."
-        )
+    cell.add("source", table(name=source, type="rtde", url=url))
+    robot = table(
+        f"A Universal Robots {model.name.upper()}: RTDE does not say which arm it is; "
+        "this is the --model given.",
+        name=model.name,
+        source=source,
     )
-    robot.add("name", model.name)
-    robot.add("source", source)
-    robot.add(tomlkit.comment("TODO: where the robot stands in the cell (mm, deg)."))
-    base = tomlkit.inline_table()
-    base.update({"xyz": [0.0, 0.0, 0.0], "rpy_deg": [0.0, 0.0, 0.0]})
-    robot.add("base", base)
-    robot.add(tomlkit.comment("No joint list: RTDE's actual_q in order; target_q is the setpoint."))
+    robot.add(comment("TODO: where the robot stands in the cell (mm, deg)."))
+    robot.add("base", inline({"xyz": [0.0, 0.0, 0.0], "rpy_deg": [0.0, 0.0, 0.0]}))
+    robot.add(comment("No joint list: RTDE's actual_q in order; target_q is the setpoint."))
     robot.add("kinematics", _kinematics(model, output))
-    robots.append(robot)
-    doc.add("robot", robots)
-    return tomlkit.dumps(doc)
+    cell.add("robot", robot)
+    return cell.text()
 
 
 def _kinematics(model: UrModel, output: Path) -> Table:
     """UR's description package if the search finds it above ``output``, else the DH table."""
-    kinematics = tomlkit.table()
     folder = output.resolve().parent
     package = Packages({}, folder).find(DESCRIPTION_PACKAGE)
     if package is not None and (package / DESCRIPTION_FILE).is_file():
-        kinematics.add(tomlkit.comment(f"UR's description package, found at {package}."))
-        kinematics.add("type", "urdf")
-        kinematics.add("file", os.path.relpath(package / DESCRIPTION_FILE, folder))
-        args = tomlkit.inline_table()
-        args.update({"ur_type": model.name, "name": model.name})
-        kinematics.add("args", args)
-        return kinematics
-    kinematics.add(
-        tomlkit.comment(
-            f"TODO: no {DESCRIPTION_PACKAGE} package above this file: UR's published DH table, "
-            "drawn without meshes. Put UR's description package beside the cell for meshes."
+        return table(
+            f"UR's description package, found at {package}.",
+            type="urdf",
+            file=os.path.relpath(package / DESCRIPTION_FILE, folder),
+            args=inline({"ur_type": model.name, "name": model.name}),
         )
+    return table(
+        f"TODO: no {DESCRIPTION_PACKAGE} package above this file: UR's published DH table, "
+        "drawn without meshes. Put UR's description package beside the cell for meshes.",
+        type="dh",
+        d=list(model.d_mm),
+        a=list(model.a_mm),
+        alpha_deg=list(model.alpha_deg),
+        limits=[list(pair) for pair in model.limits_deg],
     )
-    kinematics.add("type", "dh")
-    kinematics.add("d", list(model.d_mm))
-    kinematics.add("a", list(model.a_mm))
-    kinematics.add("alpha_deg", list(model.alpha_deg))
-    kinematics.add("limits", [list(pair) for pair in model.limits_deg])
-    return kinematics
-
-
-def _one_line(text: str) -> str:
-    """``text`` safe inside a TOML comment: no line breaks or other control characters."""
-    return "".join(c if c.isprintable() else "?" for c in text)[:300]

@@ -2,8 +2,10 @@
 
 The acquisition hands each sample to its source's ``SourceHistory`` (the tap
 ``server.stream`` calls); readers (the /api/history route, the recorder, the
-Foxglove endpoint) copy rows out. Memory is allocated when a source starts
-and never grows: ``seconds`` of samples at the source's period, with a margin.
+Foxglove endpoint) copy rows out. Memory grows as samples arrive, up to
+``seconds`` of samples at the source's period, with a margin
+(``bytes_at_most``); the cell check refuses cells whose histories could pass
+``MAX_BYTES`` together.
 """
 
 from __future__ import annotations
@@ -22,6 +24,10 @@ MarkKind = Literal["error", "stale", "live", "reload"]
 MARGIN = 1.25
 """Room for sources that deliver a little faster than their period."""
 MAX_MARKS = 2000
+MAX_BYTES = 2 << 30
+"""The most the histories of a cell may come to when full (2 GiB): ``python -m server check``
+refuses more, naming ``--history`` and ``period_ms``. A 7-axis arm with setpoints at 50 Hz
+takes 4.8 MB per 600 s: about 440 of them."""
 NAN = math.nan
 
 
@@ -113,11 +119,17 @@ class History:
         kept = self.sources.get(name)
         if samples is None and kept is not None and kept.ring.nodes == nodes and not kept.frozen:
             return kept
-        capacity = max(
-            16, math.ceil(self.seconds / period_s * MARGIN) if samples is None else samples
-        )
+        capacity = self.capacity(period_s) if samples is None else max(16, samples)
         self.sources[name] = SourceHistory(name, nodes, capacity, self.marks)
         return self.sources[name]
+
+    def capacity(self, period_s: float) -> int:
+        """Samples a live source's history holds: ``seconds`` at ``period_s``, with a margin."""
+        return max(16, math.ceil(self.seconds / period_s * MARGIN))
+
+    def bytes_at_most(self, nodes: int, period_s: float) -> int:
+        """The memory a live source reading ``nodes`` every ``period_s`` takes when full."""
+        return self.capacity(period_s) * (nodes + 2) * 8
 
     def keep_only(self, names: Iterable[str]) -> None:
         """Forget the histories of sources no longer in the cell."""
@@ -139,5 +151,5 @@ class History:
 
     @property
     def nbytes(self) -> int:
-        """Memory the histories hold (allocated up front)."""
+        """Memory the histories hold now (it grows with use, up to ``bytes_at_most``)."""
         return sum(h.ring.nbytes for h in self.sources.values())

@@ -2,7 +2,7 @@
 
 from .app import DEFAULT_LAG_S, build_app, serve
 from .faults import Faults
-from .machine import HOLD_S, UNITS, AxisGroup, Machine, SimAxis, Trafo, demo_groups
+from .machine import HOLD_S, UNITS, AxisGroup, Machine, SimAxis, Trafo, demo_groups, many_axes
 from .nodes import NodeTree, Snapshot
 from .state import STATE_KEY, MockState
 from .tls import MockCertificate, certificate_in, make_certificate
@@ -25,5 +25,6 @@ __all__ = [
     "certificate_in",
     "demo_groups",
     "make_certificate",
+    "many_axes",
     "serve",
 ]

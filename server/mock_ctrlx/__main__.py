@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..logs import setup_logging
 from .app import build_app, serve
+from .machine import demo_groups, many_axes
 from .options import add_machine_options, machine_from
 from .tls import certificate_in
 
@@ -22,7 +23,7 @@ async def _run(args: argparse.Namespace) -> None:
             kept = "a new certificate" if made else "the certificate kept"
             note = f" with {kept} in {cert.ca_file.parent} (trust it: --ctrlx-ca {cert.ca_file})"
         app = build_app(
-            machine_from(args),
+            machine_from(args, demo_groups() + many_axes(args.axes)),
             token_lifetime_s=args.token_lifetime,
             changes_only=args.changes_only,
             subscription_lifetime_s=args.subscription_lifetime,
@@ -59,6 +60,13 @@ def main() -> None:
         "(default: a new one in a temporary folder)",
     )
     add_machine_options(parser, "setpoints (state/values/ipo/pos)")
+    parser.add_argument(
+        "--axes",
+        type=int,
+        default=0,
+        metavar="N",
+        help="serve N more axes (big<k>_a<j>, six to a group): a big controller for discover",
+    )
     parser.add_argument(
         "--changes-only",
         action="store_true",

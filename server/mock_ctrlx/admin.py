@@ -67,6 +67,7 @@ async def get_stats(request: web.Request) -> web.Response:
         {
             "requests": state.traffic.requests,
             "bytes_out": state.traffic.bytes_out,
+            "most_in_flight": state.traffic.most_in_flight,
             "open_streams": state.open_streams,
             "subscriptions": len(state.subscriptions),
         }

@@ -45,7 +45,12 @@ async def count_traffic(request: web.Request, handler: Handler) -> web.StreamRes
         return await handler(request)
     traffic = request.app[STATE_KEY].traffic
     traffic.requests += 1
-    response = await handler(request)
+    traffic.in_flight += 1
+    traffic.most_in_flight = max(traffic.most_in_flight, traffic.in_flight)
+    try:
+        response = await handler(request)
+    finally:
+        traffic.in_flight -= 1
     if isinstance(response, web.Response) and isinstance(response.body, bytes):
         traffic.bytes_out += len(response.body)
     return response

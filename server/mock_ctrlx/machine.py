@@ -206,6 +206,19 @@ class _Commanded:
         return pos
 
 
+def many_axes(count: int) -> list[AxisGroup]:
+    """``count`` more axes (``big<k>_a<j>``) in groups of six: a big controller, for load tests."""
+    names = [f"big{k // 6}_a{k % 6}" for k in range(count)]
+    return [
+        AxisGroup(
+            f"big{g}",
+            tuple(_deg(name, 60.0, 200.0, 90.0) for name in names[g * 6 : g * 6 + 6]),
+            (tuple(0.0 for _ in names[g * 6 : g * 6 + 6]),),
+        )
+        for g in range((count + 5) // 6)
+    ]
+
+
 class Machine:
     """All simulated axes, by group, plus a clock that tests can replace.
 
@@ -318,4 +331,14 @@ class Machine:
         return self._group_of[axis]
 
 
-__all__ = ["HOLD_S", "UNITS", "AxisGroup", "Machine", "SimAxis", "Trafo", "Unit", "demo_groups"]
+__all__ = [
+    "HOLD_S",
+    "UNITS",
+    "AxisGroup",
+    "Machine",
+    "SimAxis",
+    "Trafo",
+    "Unit",
+    "demo_groups",
+    "many_axes",
+]

@@ -28,7 +28,6 @@ device accepts empty-argument commands (there is never an error to reset).
 from __future__ import annotations
 
 from collections import Counter
-from functools import cached_property
 from typing import Any
 
 from ._motion_nodes import IPO, IPO_POS, motion_config
@@ -58,21 +57,26 @@ def not_found(node: str) -> NodeError:
 
 
 class Snapshot:
-    """The machine at one instant: every node read through it agrees on the time."""
+    """The machine at one instant: every node read through it agrees on the time.
+
+    Positions are computed per group, when one of its axes is first read: a
+    read of one axis costs one group, not the whole machine (20 000 axes).
+    """
 
     def __init__(self, machine: Machine, t: float | None = None) -> None:
         self.machine = machine
         self.t = machine.now() if t is None else t
+        self._groups: dict[tuple[str, bool], list[float]] = {}
 
-    @cached_property
-    def actual(self) -> dict[str, float]:
-        """Actual position of every axis."""
-        return self.machine.snapshot(self.t)
-
-    @cached_property
-    def setpoints(self) -> dict[str, float]:
-        """Setpoint of every axis (computed only if a setpoint is read)."""
-        return self.machine.snapshot(self.t, setpoints=True)
+    def position(self, axis: str, *, setpoint: bool = False) -> float:
+        """The actual position (or setpoint) of ``axis`` at this instant."""
+        group = self.machine.group_of(axis)
+        values = self._groups.get((group, setpoint))
+        if values is None:
+            at = self.machine.group_setpoints if setpoint else self.machine.group_positions
+            values = self._groups[group, setpoint] = at(group, self.t).tolist()
+        names = [a.name for a in self.machine.groups[group].axes]
+        return float(values[names.index(axis)])
 
 
 class NodeTree:
@@ -139,11 +143,11 @@ class NodeTree:
             raise ValueError(f"nodes served twice: {', '.join(twice)}")
         children: dict[str, set[str]] = {"": set()}
         for leaf in [*leaves, *FOLDERS]:
-            parts = leaf.split("/")
-            for depth in range(len(parts)):
-                parent = "/".join(parts[:depth])
-                children.setdefault(parent, set()).add(parts[depth])
-                children.setdefault("/".join(parts[: depth + 1]), set())
+            parent = ""
+            for part in leaf.split("/"):  # each prefix built once: 20 000 axes index in a second
+                children[parent].add(part)
+                parent = f"{parent}/{part}" if parent else part
+                children.setdefault(parent, set())
         self._children = children
 
     def add_variable(self, node: str, type_: str, value: Any) -> None:
@@ -170,14 +174,14 @@ class NodeTree:
             return metrics(snapshot.t)[node]
         axis = self.positions.get(node) or self._actuals.get(node)
         if axis is not None:
-            pos = snapshot.actual[axis]
+            pos = snapshot.position(axis)
             if node in self.positions:
                 return {"type": "double", "value": pos}
             unit = self.machine.axes[axis].unit
             return {"type": "object", "value": {"actualPos": pos, "actualPosUnit": unit}}
         axis = self.setpoints.get(node) or self._ipos.get(node)
         if axis is not None:
-            pos = snapshot.setpoints[axis]
+            pos = snapshot.position(axis, setpoint=True)
             if node in self.setpoints:
                 return {"type": "double", "value": pos}
             unit = self.machine.axes[axis].unit

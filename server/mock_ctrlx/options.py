@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 
 from .app import DEFAULT_LAG_S
-from .machine import HOLD_S, Machine
+from .machine import HOLD_S, AxisGroup, Machine
 
 
 def add_machine_options(parser: argparse.ArgumentParser, setpoints: str = "setpoints") -> None:
@@ -27,6 +28,6 @@ def add_machine_options(parser: argparse.ArgumentParser, setpoints: str = "setpo
     )
 
 
-def machine_from(args: argparse.Namespace) -> Machine:
-    """The demo machine with the options' lag and hold."""
-    return Machine(lag_s=args.lag_ms / 1000.0, hold_s=args.hold_s)
+def machine_from(args: argparse.Namespace, groups: Sequence[AxisGroup] | None = None) -> Machine:
+    """A machine of ``groups`` (default: the demo's) with the options' lag and hold."""
+    return Machine(groups, lag_s=args.lag_ms / 1000.0, hold_s=args.hold_s)

@@ -127,6 +127,10 @@ class Traffic:
 
     requests: int = 0
     bytes_out: int = 0
+    in_flight: int = 0
+    """Requests being answered now (an event stream counts while it starts)."""
+    most_in_flight: int = 0
+    """The most requests answered at once so far: how hard a client pressed."""
 
 
 @dataclass

@@ -32,6 +32,15 @@ log = logging.getLogger(__name__)
 __all__ = ["MoveError", "Runtime", "SourceDefaults", "may_command", "move_target"]
 
 
+async def _stop_quietly(running: RunningSource, why: str) -> None:
+    """Stop ``running``; a source that fails to stop is logged, and keeps nothing else from
+    running (the new cell starts regardless)."""
+    try:
+        await running.stop()
+    except Exception:
+        log.exception("source %s: stopping it (%s) failed", running.config.name, why)
+
+
 class MoveError(ValueError):
     """A move that cannot be commanded (not allowed, outside the limits, device refused)."""
 
@@ -84,6 +93,11 @@ class Runtime:
 
         One at a time: the file watcher and an edit from the page may both apply a cell,
         and two interleaved would each start a source of the same name.
+
+        The changed sources are started before the old ones stop: if any fails
+        to start (whatever it raises: a recording whose numbers overflow, a
+        mock that cannot bind), the ones started are closed again, the running
+        cell goes on untouched, and the error is raised for the caller to show.
         """
         async with self._applying:
             await self._apply(cell)
@@ -92,22 +106,34 @@ class Runtime:
         indices = {robot.name: i for i, robot in enumerate(cell.robots)}
         wanted = {s.name: s for s in cell.sources}
         kept: dict[str, RunningSource] = {}
-        for name, running in list(self.sources.items()):
+        retired: list[tuple[RunningSource, str]] = []
+        for name, running in self.sources.items():
             config = wanted.get(name)
-            robots = cell.robots_of(name)
-            if config is not None and running.fingerprint == fingerprint(config, robots):
+            if config is not None and running.fingerprint == fingerprint(
+                config, cell.robots_of(name)
+            ):
                 kept[name] = running
             else:
-                log.info("source %s: stopping (%s)", name, "changed" if config else "removed")
-                await running.stop()
+                retired.append((running, "changed" if config else "removed"))
+        histories = dict(self.history.sources)
         started: list[RunningSource] = []
-        for name, config in wanted.items():
-            if name not in kept:
-                running = await start_source(
-                    config, cell.robots_of(name), self.hub, self.defaults, self.history
-                )
-                started.append(running)
-                kept[name] = running
+        try:
+            for name, config in wanted.items():
+                if name not in kept:
+                    started.append(
+                        await start_source(
+                            config, cell.robots_of(name), self.hub, self.defaults, self.history
+                        )
+                    )
+        except BaseException:
+            self.history.sources = histories  # the running sources' histories, as they were
+            for running in started:
+                await _stop_quietly(running, "its cell could not start")
+            raise
+        for running, why in retired:
+            log.info("source %s: stopping (%s)", running.config.name, why)
+            await _stop_quietly(running, why)
+        kept.update((running.config.name, running) for running in started)
         # From here on nothing awaits: viewers get the new hello before any new frame.
         for name, running in kept.items():
             running.robots = cell.robots_of(name)

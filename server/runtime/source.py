@@ -100,13 +100,17 @@ async def start_source(
     if config.replay is not None:
         return await _start_replay(config, robots, hub, history or History(defaults.history_s))
     opened = await OPENERS[config.type](config, robots, defaults)
-    if opened.mock is not None:
-        log.info("source %s: embedded mock %s at %s", config.name, config.type, opened.url)
-    health = SourceHealth(name=config.name, url=opened.url, mock=opened.mock is not None)
-    period = config.period_s or defaults.period_s
-    poll = PollSettings(period, sample_cost_s=defaults.sample_cost_s)
-    tap = None if history is None else history.source(config.name, nodes_of(robots), period)
-    acquisition = Acquisition(opened.connector, robots, hub, health, poll, tap=tap)
+    try:
+        if opened.mock is not None:
+            log.info("source %s: embedded mock %s at %s", config.name, config.type, opened.url)
+        health = SourceHealth(name=config.name, url=opened.url, mock=opened.mock is not None)
+        period = config.period_s or defaults.period_s
+        poll = PollSettings(period, sample_cost_s=defaults.sample_cost_s)
+        tap = None if history is None else history.source(config.name, nodes_of(robots), period)
+        acquisition = Acquisition(opened.connector, robots, hub, health, poll, tap=tap)
+    except BaseException:  # opened, then failed: nothing of it may stay open (Runtime.apply)
+        await _closed(opened.connector, opened.mock)
+        raise
     return RunningSource(
         config,
         robots,
@@ -116,6 +120,17 @@ async def start_source(
         fingerprint(config, robots),
         opened.mock,
     )
+
+
+async def _closed(*parts: Closable | None) -> None:
+    """Close each of ``parts``; one that fails to close is logged and the others still closed."""
+    for part in parts:
+        if part is None:
+            continue
+        try:
+            await part.close()
+        except Exception:
+            log.exception("closing %r failed", part)
 
 
 def nodes_of(robots: list[Robot]) -> list[str]:

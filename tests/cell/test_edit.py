@@ -103,8 +103,8 @@ def test_an_axis_pose_changes_in_place() -> None:
     cell = CellText(DEMO)
     cell.set_axis_pose("positioner", "turn", [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
     assert changed_lines(DEMO, cell.text) == [
-        '-pose = { xyz = [-100.0, 0.0, 0.0], rpy_deg = [0.0, -90.0, 0.0] }',
-        '+pose = { xyz = [1.0, 2.0, 3.0], rpy_deg = [4.0, 5.0, 6.0] }',
+        "-pose = { xyz = [-100.0, 0.0, 0.0], rpy_deg = [0.0, -90.0, 0.0] }",
+        "+pose = { xyz = [1.0, 2.0, 3.0], rpy_deg = [4.0, 5.0, 6.0] }",
     ]
 
 
@@ -118,7 +118,9 @@ def test_a_description_replaces_the_kinematics_keeping_the_comment_that_follows(
     after = tomllib.loads(cell.text)
     iiwa = after["robot"][1]
     assert iiwa["kinematics"] == {
-        "type": "urdf", "file": "arm.urdf", "packages": {"arm_description": "arm"}
+        "type": "urdf",
+        "file": "arm.urdf",
+        "packages": {"arm_description": "arm"},
     }
     assert [j["joint"] for j in iiwa["joints"]] == names and "mesh_dir" not in iiwa
     # The comment that introduced the positioner stays, right above it.
@@ -127,7 +129,7 @@ def test_a_description_replaces_the_kinematics_keeping_the_comment_that_follows(
     intro = lines.index("# A MotionPlus axis group (Universal Robots): a tilt axis along +X, "
                         "450 mm up, carrying a turntable.")  # fmt: skip
     assert lines[intro + 1] == "[[robot]]" and lines[intro - 1] == ""
-    assert lines[intro - 2].startswith("kinematics = { type = \"urdf\"")
+    assert lines[intro - 2].startswith('kinematics = { type = "urdf"')
     # Everything else is as it was.
     before = tomllib.loads(DEMO)
     for k in (0, 2):
@@ -153,7 +155,7 @@ def test_tables_written_as_sections_are_edited_as_sections() -> None:
     # Each new key sits in its own table, before the comments that introduce the next.
     lines = cell.text.splitlines()
     assert lines[lines.index("+scale = 2.0"[1:]) - 1] == 'unit = "deg"'
-    assert lines[lines.index("kinematics = {type=\"type12\"}") + 1].startswith("base = ")
+    assert lines[lines.index('kinematics = {type="type12"}') + 1].startswith("base = ")
     parsed = tomllib.loads(cell.text)
     assert parsed["robot"][1]["kinematics"]["axes"][0]["pose"]["xyz"] == [1.0, 1.0, 1.0]
 

@@ -25,7 +25,7 @@ from tests.opcua.helpers import running
 ACME = "http://acme.example/cell7/"
 UNECE = "http://www.opcfoundation.org/UA/units/un/cefact"
 RADIAN, DEGREE, MILLIMETRE = 4405297, 17476, 5066068  # OPC Foundation's UNECE_to_OPCUA.csv
-HOSTILE = 'ACME "robots"\nallow_commands = true\n[[source]]\nname = "evil"'
+HOSTILE = 'ACME "robots"\x1b[2J\nallow_commands = true\n[[source]]\nname = "evil"'
 
 
 async def streamed(cell: Cell, robot: str) -> tuple[Runtime, SourceHealth]:
@@ -153,6 +153,8 @@ async def test_a_robotics_server_with_its_own_names_is_discovered_and_followed(
         assert [s["name"] for s in raw["source"]] == ["cell7"]
         assert "allow_commands" not in raw["source"][0]
         assert "\\nallow_commands = true" in text
+        # Nor does its ANSI escape reach the terminal or the file: shown as text.
+        assert "\x1b" not in out + text and "\\x1b[2J" in out
         cell = load_cell(output, env={}, cache_dir=tmp_path / "cache")
         (robot,) = cell.robots
         assert robot.name == "KR6_1" and robot.family == "axis_group" and len(robot.joints) == 6

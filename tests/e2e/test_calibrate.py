@@ -219,8 +219,9 @@ async def test_a_turntable_calibrated_from_three_tcp_samples_lands_where_it_is(
             "pose": fit["pose"], "axis": "turn", "joints": first_joints,
         }  # fmt: skip
         status = await call(http, "POST", f"{base}/api/cell/changes", {"changes": [change]})
-        assert "+base = { xyz = [1350.0, 0.0, 0.0], rpy_deg = [0.0, 0.0, 0.0] }" in (
-            status["unsaved"]["diff"]
+        assert (
+            "+base = { xyz = [1350.0, 0.0, 0.0], rpy_deg = [0.0, 0.0, 0.0] }"
+            in (status["unsaved"]["diff"])
         )
         robots = {r["name"]: r for r in await call(http, "GET", f"{base}/api/robots")}
         np.testing.assert_allclose(

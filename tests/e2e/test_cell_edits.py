@@ -182,8 +182,9 @@ async def test_a_file_changed_on_disk_meanwhile_is_not_overwritten(cell_file: Pa
         await robot(http, base)
         place = {"op": "base", "robot": "still", "xyz": [0.5, 0.25, 0], "rpy": [0, 0, math.pi / 2]}
         _, cell = await request(http, "POST", f"{base}/api/cell/changes", {"changes": [place]})
-        assert "base = { xyz = [500.0, 250.0, 0.0], rpy_deg = [0.0, 0.0, 90.0] }" in (
-            cell["unsaved"]["diff"]
+        assert (
+            "base = { xyz = [500.0, 250.0, 0.0], rpy_deg = [0.0, 0.0, 90.0] }"
+            in (cell["unsaved"]["diff"])
         )
         edited_by_hand = CELL.replace("# held at one pose", "# edited by hand")
         cell_file.write_text(edited_by_hand)

@@ -74,6 +74,8 @@ class Server:
         """Frames messages per second the viewer got before any attack."""
         self.windows: list[tuple[float, float, float]] = []
         """(frames/s, seconds, RSS growth in MiB) of each attack window so far."""
+        self.cell: Path | None = None
+        """The cell file it serves, where the attacks write (tests/e2e/test_hostile_cells.py)."""
 
     def rss_mib(self) -> float:
         for line in Path(f"/proc/{self.pid}/status").read_text().splitlines():

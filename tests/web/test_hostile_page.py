@@ -187,7 +187,12 @@ async def test_a_cross_site_page_cannot_change_the_cell(tmp_path: Path) -> None:
             # Without the token, nobody gets in; a rebinding page names its own host.
             json_type = {"Content-Type": "application/json"}
             assert (await request(base, "POST", path, json_type, body))[0] == 401
-            rebinding = {**auth, **json_type, "Host": "evil.example", "Origin": "http://evil.example"}
+            rebinding = {
+                **auth,
+                **json_type,
+                "Host": "evil.example",
+                "Origin": "http://evil.example",
+            }
             assert (await request(base, "POST", path, rebinding, body))[0] == 403
         for path in ("/api/cell", "/api/descriptions?robot=still"):
             assert (await request(base, "GET", path, {}))[0] == 401

@@ -10,26 +10,25 @@ maker and model linkview knows gets that table (the KUKA LBR iiwa 7 R800, the
 IndraMotion MLC kinematic Type 12), any other a placeholder chain of its axes
 that runs as written, drawn as ball and stick, until its URDF is given.
 
-Server text (names, makers, units) only ever becomes a TOML string (quoted and
-escaped by tomlkit) or a comment passed through ``one_line``: a hostile server
-cannot add a key. The text is parsed again and refused unless it reads back as
-built.
+Server text (names, makers, units) is written by ``discover.writer``, as for
+every discover: only ever a TOML string (quoted and escaped by tomlkit) or a
+one-line comment, each table read back as built. A hostile server cannot add
+a key.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-import tomlkit
-from tomlkit.items import Array, Comment, Table
+from tomlkit.items import Array, Table
 
 from ...mock_ctrlx.machine import IIWA_TRAFO, TYPE12_TRAFO
-from ...text import plural, printable
-from ..starter import _NAME, CHAIN_STEP_MM, SPACING_MM, _unique
+from ...text import plural
+from ..starter import CHAIN_STEP_MM, SPACING_MM, axis_chain
+from ..writer import CellDocument, comment, commented, inline, lines, table, unique_name
 from .browse import Axis, Device, Found
 
 MAX_CHAIN = 6
@@ -48,107 +47,72 @@ class SourceSpec:
     password_env: str | None = None
 
 
-def one_line(text: str) -> str:
-    """``text`` as a comment may hold it: one line, control characters escaped."""
-    return printable(text).strip()
-
-
-def _comment(text: str) -> Comment:
-    return tomlkit.comment(one_line(text))
-
-
 def starter_cell(found: Found, source: SourceSpec, command: str) -> str:
     """The TOML text of the starter cell."""
-    doc = tomlkit.document()
-    for line in (
+    header = [
         f"A starter cell written by `{command}`.",
         "Check it with `python -m server check FILE`, serve it with",
         "`python -m server --cell FILE`; docs/cell.md describes every key.",
         "Lines marked TODO need a choice only a person can make.",
         *(f"Not read: {note}" for note in found.notes),
-    ):
-        doc.add(_comment(line))
-    doc.add(tomlkit.nl())
-    sources = tomlkit.aot()
-    sources.append(_source(source))
-    doc.append("source", sources)
-    robots = tomlkit.aot()
+    ]
+    devices = [(system, d) for system, items in found.systems.items() for d in items]
+    header += [f"{system}/{d.name}: no axes with a position; left out." for system, d in devices
+               if not d.axes]  # fmt: skip
+    if not any(d.axes for _, d in devices):
+        header.append("TODO: no motion devices were found: add [[robot]] tables by hand.")
+    cell = CellDocument(*header)
+    cell.add("source", _source(source))
     names: set[str] = set()
-    for system, devices in found.systems.items():
-        for device in devices:
-            if not device.axes:
-                doc.add(_comment(f"{system}/{device.name}: no axes with a position; left out."))
-                continue
-            robots.append(_robot(system, device, _unique(device.name, names), source, len(names)))
-    if robots:
-        doc.add(tomlkit.nl())
-        doc.append("robot", robots)
-    else:
-        doc.add(_comment("TODO: no motion devices were found: add [[robot]] tables by hand."))
-    text: str = tomlkit.dumps(doc)
-    if tomllib.loads(text) != doc.unwrap():
-        raise ValueError("the cell written does not read back as built")
-    return text
+    for system, device in devices:
+        if device.axes:
+            name = unique_name(device.name, names)
+            cell.add("robot", _robot(system, device, name, source, len(names) - 1))
+    return cell.text()
 
 
 def _source(spec: SourceSpec) -> Table:
-    table = tomlkit.table()
-    table.add("name", spec.name)
-    table.add("type", "opcua")
-    table.add("url", spec.url)
+    keys: dict[str, Any] = {"name": spec.name, "type": "opcua", "url": spec.url}
     if spec.security != "None":
-        table.add("security", spec.security)
+        keys["security"] = spec.security
     if spec.server_certificate is not None:
-        table.add("server_certificate", spec.server_certificate)
+        keys["server_certificate"] = spec.server_certificate
     if spec.user is not None:
-        table.add("user", spec.user)
-        password = tomlkit.item(spec.password_env)
-        password.comment("the password comes from this variable")
-        table.add("password_env", password)
-    return table
+        keys["user"] = spec.user
+        keys["password_env"] = commented(spec.password_env, "the password comes from this variable")
+    return table(**keys)
 
 
 def _robot(system: str, device: Device, name: str, source: SourceSpec, index: int) -> Table:
-    table = tomlkit.table()
     who = " ".join(filter(None, (device.manufacturer, device.model))) or "maker and model not given"
     serial = f", serial number {device.serial}" if device.serial else ""
-    table.add(_comment(f"{system}/{device.name}: {who}{serial}."))
-    table.add("name", name)
-    table.add("source", source.name)
-    table.add(
-        _comment(
-            f"TODO: where the robot stands in the cell (mm, deg); {SPACING_MM:g} mm apart for now."
-        )
-    )
-    table.add(
-        "base", _inline({"xyz": [(index - 1) * SPACING_MM, 0.0, 0.0], "rpy_deg": [0.0, 0.0, 0.0]})
-    )
+    robot = table(f"{system}/{device.name}: {who}{serial}.", name=name, source=source.name)
+    robot.add(comment(f"TODO: where the robot stands in the cell (mm, deg); "
+                      f"{SPACING_MM:g} mm apart for now."))  # fmt: skip
+    robot.add("base", inline({"xyz": [index * SPACING_MM, 0.0, 0.0], "rpy_deg": [0.0, 0.0, 0.0]}))
     known = _known(device)
     if known is not None:
-        table.add(
-            _comment(f"linkview knows the {device.model}: its kinematics, limits from the server.")
-        )
-        table.add("kinematics", _inline(known))
-    table.add("joints", _joints(device.axes))
+        robot.add(comment(f"linkview knows the {device.model}: its kinematics, limits from the "
+                          "server."))  # fmt: skip
+        robot.add("kinematics", inline(known))
+    robot.add("joints", _joints(device.axes))
     if known is None and len(device.axes) > MAX_CHAIN:
-        table.add(_comment(f"TODO: which URDF (or xacro) describes the {who}? The Robotics model"))
-        table.add(_comment("has no kinematics; check names this key until the file is there."))
-        table.add("kinematics", _inline({"type": "urdf", "file": f"{name}.urdf"}))
+        robot.add(comment(f"TODO: which URDF (or xacro) describes the {who}? The Robotics model"))
+        robot.add(comment("has no kinematics; check names this key until the file is there."))
+        robot.add("kinematics", inline({"type": "urdf", "file": f"{name}.urdf"}))
     elif known is None:
-        table.add(_comment(f"TODO: which URDF (or xacro) describes the {who}? The Robotics"))
-        table.add(_comment("model has no kinematics; until then a placeholder chain, each axis"))
-        table.add(
-            _comment(
-                f"{CHAIN_STEP_MM:g} mm above the one before (rotary about +Z, linear along it):"
-            )
-        )
-        table.add(_comment(f'kinematics = {{ type = "urdf", file = "{name}.urdf" }}'))
-        table.add("kinematics", _chain(device.axes))
-    return table
+        robot.add(comment(f"TODO: which URDF (or xacro) describes the {who}? The Robotics"))
+        robot.add(comment("model has no kinematics; until then a placeholder chain, each axis"))
+        robot.add(comment(f"{CHAIN_STEP_MM:g} mm above the one before (rotary about +Z, linear "
+                          "along it):"))  # fmt: skip
+        robot.add(comment(f'kinematics = {{ type = "urdf", file = "{name}.urdf" }}'))
+        chain = [(axis.name, not axis.linear, _cell_limits(axis)) for axis in device.axes]
+        robot.add("kinematics", table(type="axis_group", axes=axis_chain(chain)))
+    return robot
 
 
 def _joints(axes: list[Axis]) -> Array:
-    array = tomlkit.array()
+    entries: list[tuple[dict[str, Any], str | None]] = []
     for axis in axes:
         entry: dict[str, Any] = {"node": axis.node}
         now = "no value" if axis.value is None else f"{axis.value:.6g}"
@@ -158,36 +122,8 @@ def _joints(axes: list[Axis]) -> Array:
         if axis.unit is None:  # nothing to convert: the person says what the values are
             entry["unit"] = "mm" if axis.linear else "deg"
             note += f"; TODO: its unit is {entry['unit']}?"
-        array.add_line(_inline(entry), comment=one_line(note))
-    array.add_line(indent="")
-    return array
-
-
-def _chain(axes: list[Axis]) -> Table:
-    kinematics = tomlkit.table()
-    kinematics.add("type", "axis_group")
-    chain = tomlkit.aot()
-    parent = ""
-    for i, axis in enumerate(axes):
-        link = _NAME.sub("_", axis.name).strip("_") or f"axis{i + 1}"
-        link = link if link not in {c["name"] for c in chain} else f"{link}_{i + 1}"
-        entry = tomlkit.table()
-        entry.add("name", link)
-        entry.add("parent", parent)
-        entry.add(
-            "pose",
-            _inline(
-                {"xyz": [0.0, 0.0, 0.0 if i == 0 else CHAIN_STEP_MM], "rpy_deg": [0.0, 0.0, 0.0]}
-            ),
-        )
-        entry.add("type", "linear" if axis.linear else "rotary")
-        limits = _cell_limits(axis)
-        if limits is not None:
-            entry.add("limits", list(limits))
-        chain.append(entry)
-        parent = link
-    kinematics.add("axes", chain)
-    return kinematics
+        entries.append((entry, note))
+    return lines(entries)
 
 
 def _known(device: Device) -> dict[str, Any] | None:
@@ -224,12 +160,6 @@ def _cell_limits(axis: Axis) -> tuple[float, float] | None:
         )
     low, high = (round(v * factor, 9) for v in axis.limits)
     return (min(low, high), max(low, high))
-
-
-def _inline(values: dict[str, Any]) -> Any:
-    table = tomlkit.inline_table()
-    table.update(values)
-    return table
 
 
 def listing(found: Found) -> Iterable[str]:

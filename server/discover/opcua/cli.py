@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
-import re
 import sys
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -15,11 +14,11 @@ from ...opcua.nodes import NodeIdKey
 from ...opcua.session import open_session
 from ...sources import SourceError
 from ...text import printable
+from ..writer import plain_name
 from .browse import Found, robotics, under
 from .cell import SourceSpec, listing, starter_cell
 
 PASSWORD_ENV = "LINKVIEW_OPCUA_PASSWORD"
-_NAME = re.compile(r"[^A-Za-z0-9_.\-]+")
 
 
 def main(argv: list[str]) -> int:
@@ -54,7 +53,7 @@ def main(argv: list[str]) -> int:
         parser.error(f"{output} exists; give another --output or --force")
     if args.user and PASSWORD_ENV not in os.environ:
         parser.error(f"--user needs the password in {PASSWORD_ENV}")
-    name = args.source or _NAME.sub("_", urlsplit(args.url).hostname or "opcua")[:64]
+    name = args.source or plain_name(urlsplit(args.url).hostname or "", "opcua")
     certificate = None if args.server_certificate is None else Path(args.server_certificate)
     settings = OpcuaSettings(
         args.url,
@@ -70,7 +69,7 @@ def main(argv: list[str]) -> int:
     except SourceError as exc:
         print(f"linkview: {printable(str(exc))}", file=sys.stderr)
         return 1
-    print("\n".join(listing(found)))
+    print("\n".join(map(printable, listing(found))))  # names, makers: the server's text
     spec = SourceSpec(
         name,
         args.url,

@@ -10,7 +10,7 @@ from ...ctrlx import Credentials, CtrlxConnector, DataLayerClient, check_base_ur
 from ...mock_ctrlx import build_app, serve
 from ..defaults import SourceDefaults
 from ..simulation import machine_for
-from .opened import Opened
+from .opened import Opened, closed_on_failure
 
 
 class _StoppedWith:
@@ -27,12 +27,18 @@ async def open_ctrlx(config: Source, robots: list[Robot], defaults: SourceDefaul
     """A ctrlX data layer at ``config.url``, or an embedded mock serving the robots' nodes."""
     options = config.options if isinstance(config.options, CtrlxSource) else None
     options = options or CtrlxSource(name=config.name)
-    mock: _StoppedWith | None = None
-    url = config.url
-    if url is None:
+    if config.url is None:
         machine = machine_for(robots, defaults.mock_hold_s)
         runner, url = await serve(build_app(machine), "127.0.0.1", 0)
         mock = _StoppedWith(runner)
+        async with closed_on_failure(mock):
+            return Opened(_connector(config, url, options, defaults), url, mock)
+    return Opened(_connector(config, config.url, options, defaults), config.url)
+
+
+def _connector(
+    config: Source, url: str, options: CtrlxSource, defaults: SourceDefaults
+) -> CtrlxConnector:
     client = DataLayerClient(
         url,
         Credentials(config.user, config.password),
@@ -42,5 +48,4 @@ async def open_ctrlx(config: Source, robots: list[Robot], defaults: SourceDefaul
         timeout_s=defaults.timeout_s,
     )
     client.warning = check_base_url(url)  # plain http to another machine: credentials in clear
-    connector = CtrlxConnector(client, options.mode or defaults.mode, defaults.keepalive_s)
-    return Opened(connector, url, mock)
+    return CtrlxConnector(client, options.mode or defaults.mode, defaults.keepalive_s)

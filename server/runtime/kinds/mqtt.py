@@ -10,7 +10,7 @@ from ...mqtt import MachinePublisher, Mosquitto, MqttConnector, MqttSettings
 from ...sources import SourceError
 from ..defaults import SourceDefaults
 from ..simulation import machine_for
-from .opened import Closing, MovedInSimulation, Opened, Unusable
+from .opened import Closing, MovedInSimulation, Opened, Unusable, closed_on_failure
 
 
 async def open_mqtt(config: Source, robots: list[Robot], defaults: SourceDefaults) -> Opened:
@@ -34,9 +34,11 @@ async def open_mqtt(config: Source, robots: list[Robot], defaults: SourceDefault
     except SourceError as exc:
         await broker.close()
         return Opened(Unusable(str(exc)), "mqtt:// (no broker)")
-    machine = machine_for(robots, defaults.mock_hold_s)
-    publisher = MachinePublisher(machine, broker.host, broker.port, defaults.period_s)
-    publisher.start()
-    connector = MqttConnector(dataclasses.replace(settings, url=url, user=None, password=None))
-    moved = MovedInSimulation(connector, machine, robots)
-    return Opened(moved, url, Closing(publisher, broker))
+    async with closed_on_failure(broker):
+        machine = machine_for(robots, defaults.mock_hold_s)
+        publisher = MachinePublisher(machine, broker.host, broker.port, defaults.period_s)
+        publisher.start()
+    mock = Closing(publisher, broker)
+    async with closed_on_failure(mock):
+        connector = MqttConnector(dataclasses.replace(settings, url=url, user=None, password=None))
+        return Opened(MovedInSimulation(connector, machine, robots), url, mock)

@@ -22,7 +22,7 @@ from ...mock_opcua import MOCK_URI, MockOptions, OpcuaMock
 from ...opcua import OpcuaConnector, OpcuaSettings, UnitRule
 from ..defaults import SourceDefaults
 from ..simulation import machine_for
-from .opened import Opened
+from .opened import Opened, closed_on_failure
 
 
 async def open_opcua(config: Source, robots: list[Robot], defaults: SourceDefaults) -> Opened:
@@ -55,18 +55,19 @@ async def open_opcua(config: Source, robots: list[Robot], defaults: SourceDefaul
             period_s=config.period_s or defaults.period_s,
         ),
     )
-    port = _free_port()
-    url = f"opc.tcp://127.0.0.1:{port}"
-    if options.security != "None":  # the mock's own certificate, trusted as the cell would
-        settings = dataclasses.replace(settings, server_certificate=mock.certificate_file)
-    commands = {r.command_node: f"nsu={MOCK_URI};s={r.name}.MoveJoints" for r in robots}
-    connector = OpcuaConnector(
-        dataclasses.replace(settings, url=url),
-        units,
-        commands,
-        prepare=lambda: mock.ensure_started("127.0.0.1", port),
-    )
-    return Opened(connector, url, mock)
+    async with closed_on_failure(mock):  # its certificate and folder, made already
+        port = _free_port()
+        url = f"opc.tcp://127.0.0.1:{port}"
+        if options.security != "None":  # the mock's own certificate, trusted as the cell would
+            settings = dataclasses.replace(settings, server_certificate=mock.certificate_file)
+        commands = {r.command_node: f"nsu={MOCK_URI};s={r.name}.MoveJoints" for r in robots}
+        connector = OpcuaConnector(
+            dataclasses.replace(settings, url=url),
+            units,
+            commands,
+            prepare=lambda: mock.ensure_started("127.0.0.1", port),
+        )
+        return Opened(connector, url, mock)
 
 
 def unit_rules(robots: list[Robot]) -> dict[str, UnitRule]:

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
+from contextlib import asynccontextmanager
 from dataclasses import dataclass
 
 from ...cell import Robot, Source
@@ -24,6 +25,22 @@ class Opened:
 
 Opener = Callable[[Source, list[Robot], SourceDefaults], Awaitable[Opened]]
 """From a cell's source, its robots and the server's defaults to an opened source."""
+
+
+@asynccontextmanager
+async def closed_on_failure(part: Closable) -> AsyncIterator[None]:
+    """Close ``part`` (an embedded mock just started) if the block raises, whatever it raises.
+
+    An opener that fails after starting its mock (a connector that cannot be
+    made) must leave nothing running: a reload that fails goes on with the
+    running cell, and a mock left behind would hold its port, or its broker
+    process, for the life of the server.
+    """
+    try:
+        yield
+    except BaseException:
+        await part.close()
+        raise
 
 
 class MovedInSimulation:

@@ -9,7 +9,7 @@ from ...rtde import RtdeConnector, RtdeSettings
 from ...rtde.wire import rtde_address
 from ..defaults import SourceDefaults
 from ..simulation import machine_for
-from .opened import MovedInSimulation, Opened
+from .opened import MovedInSimulation, Opened, closed_on_failure
 
 
 async def open_rtde(config: Source, robots: list[Robot], defaults: SourceDefaults) -> Opened:
@@ -20,9 +20,10 @@ async def open_rtde(config: Source, robots: list[Robot], defaults: SourceDefault
         machine = machine_for(robots, defaults.mock_hold_s)
         mock = RtdeMock(machine)
         url = await mock.start("127.0.0.1", 0)
-        settings = RtdeSettings(mock.host, mock.port, frequency, defaults.timeout_s)
-        connector = MovedInSimulation(RtdeConnector(settings), machine, robots)
-        return Opened(connector, url, mock)
+        async with closed_on_failure(mock):
+            settings = RtdeSettings(mock.host, mock.port, frequency, defaults.timeout_s)
+            connector = MovedInSimulation(RtdeConnector(settings), machine, robots)
+            return Opened(connector, url, mock)
     host, port = rtde_address(config.url)
     settings = RtdeSettings(host, port, frequency, defaults.timeout_s)
     return Opened(RtdeConnector(settings), config.url)

@@ -1,0 +1,41 @@
+"""bench/hostile.py starts with --help and runs its quick mode (no docs written).
+
+The clients' and the cell files' attacks are the tests of tests/e2e/test_limits.py and
+tests/e2e/test_hostile_cells.py; here the part only the benchmark has: discover against
+the mock with 2 000 more axes, 2 % of its requests failing.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+BENCH = ROOT / "bench" / "hostile.py"
+
+
+def test_help_names_the_attacks_and_the_parts() -> None:
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0
+    assert "nested brackets" in done.stdout and "--quick" in done.stdout
+    assert "{clients,cells,discover,network}" in done.stdout
+
+
+def test_quick_discover_finds_every_axis_a_few_requests_at_a_time() -> None:
+    docs = (ROOT / "docs" / "benchmarks.md").read_bytes()
+    done = subprocess.run(
+        [sys.executable, str(BENCH), "--quick", "--part", "discover"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    rows = [line.split("|")[1:-1] for line in done.stdout.splitlines() if line.startswith("| 2,")]
+    (row,) = rows
+    served, found, dropped, _, in_flight = (cell.strip() for cell in row[:5])
+    assert (served, found, dropped) == ("2,000 + 11", "2011", "0")
+    assert int(in_flight) <= 4  # a handful, as docs/cell.md promises
+    assert (ROOT / "docs" / "benchmarks.md").read_bytes() == docs
