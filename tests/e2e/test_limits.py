@@ -29,7 +29,7 @@ from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect as connect_sync
 
 from tests.conftest import free_port
-from tests.web._browser import server_process
+from tests.web._browser import ROOT, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
@@ -349,7 +349,9 @@ def test_heavy_transformation_requests_are_bounded_and_the_stream_holds(server: 
 
     client = [sys.executable, "-m", "tests.e2e._heavy_client", str(server.port), TOKEN]
     with server.attacked():
-        done = subprocess.run(client, capture_output=True, text=True, timeout=120, check=True)
+        done = subprocess.run(
+            client, cwd=ROOT, capture_output=True, text=True, timeout=120, check=True
+        )
     answers = json.loads(done.stdout)
     statuses = sorted(status for status, _ in answers)
     assert set(statuses) == {200, 503}, statuses  # some computed, the rest told to wait
