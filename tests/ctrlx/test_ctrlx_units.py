@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import logging
 import math
 from urllib.parse import unquote
 
@@ -19,6 +20,7 @@ from server.ctrlx import (
     NodeNotFound,
     SseParser,
     Token,
+    TokenManager,
     encode_node_path,
     filetime_from_unix,
     unix_from_filetime,
@@ -192,6 +194,32 @@ def test_a_controller_clock_behind_ours_changes_nothing_but_a_warning() -> None:
     assert "about 1.0 h behind" in (behind.clock_warning() or "")
     ahead = Token.from_jwt(token(iat=9000.0, exp=9002.0), wall=4600.0, mono=7.0)
     assert ahead.renew_at() == pytest.approx(8.6) and ahead.clock_warning() is None
+
+
+async def test_a_clock_warning_is_given_once_and_ends_with_a_token_that_fits(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.INFO, "server.ctrlx.auth")
+    # Two tokens from a device an hour behind, then one from a device set right.
+    issued = iter([token(iat=1000.0, exp=1002.0)] * 2 + [token(iat=4600.0, exp=4602.0)])
+
+    async def fetch() -> str:
+        return next(issued)
+
+    async def no_sleep(_s: float) -> None:
+        pass
+
+    manager = TokenManager(fetch, wall=lambda: 4600.0, mono=lambda: 7.0, sleep=no_sleep)
+    warnings = []
+    stale = None
+    for _ in range(3):
+        stale = await manager.renew(stale)
+        warnings.append(manager.warning)
+    assert "about 1.0 h behind" in (warnings[0] or "") and warnings[1] == warnings[0]
+    assert warnings[2] is None
+    said = [r.getMessage() for r in caplog.records if r.name == "server.ctrlx.auth"]
+    assert sum("clock skew" in m for m in said) == 1, said
+    assert sum("fit our clock again" in m for m in said) == 1, said
 
 
 def test_tokens_without_a_usable_lifetime_are_renewed_only_on_rejection() -> None:
