@@ -6,6 +6,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -127,6 +128,20 @@ def open_page(page: Page, url: str, timeout_ms: float = 30_000) -> None:
         " return n.length > 0 && n.every(c => c > 0); }",
         timeout=timeout_ms,
     )
+
+
+SCREENSHOTS: Path | None = None
+"""Where ``screenshot`` saves (tests/web/conftest.py sets it to a folder of pytest's
+temporary ones, kept for the last few runs); None: a new temporary folder."""
+
+
+def screenshot(page: Page, name: str) -> bytes:
+    """A picture of ``page`` (PNG), also saved as ``name`` for people to look at, never in
+    the checkout."""
+    global SCREENSHOTS
+    if SCREENSHOTS is None:
+        SCREENSHOTS = Path(tempfile.mkdtemp(prefix="linkview-screenshots-"))
+    return page.screenshot(path=str(SCREENSHOTS / name))
 
 
 # Page-side sampler of the banner: its text every 50 ms, kept only when it changed.

@@ -3,7 +3,7 @@
 Drives Debian's Chromium (``/usr/bin/chromium``, software WebGL through
 SwiftShader) with the playwright package; it never downloads a browser. One
 server (``python -m server``, the demo cell with its embedded mock controller)
-and one page serve the whole module; screenshots go to ``tests/artifacts/``.
+and one page serve the whole module; screenshots go to pytest's temporary folder.
 """
 
 from __future__ import annotations
@@ -22,9 +22,15 @@ from PIL import Image
 from playwright.sync_api import Browser, Page
 
 from tests.conftest import free_port
-from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
+from tests.web._browser import (
+    Watched,
+    open_page,
+    post_json,
+    screenshot,
+    server_process,
+    watch,
+)
 
-ARTIFACTS = ROOT / "tests" / "artifacts"
 TIMEOUT_MS = 30_000
 NOT_NETWORK = ("data", "blob", "about")
 """URL schemes that never leave the page."""
@@ -62,8 +68,7 @@ def _names(page: Page) -> list[str]:
 
 
 def _screenshot(page: Page, name: str) -> None:
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / name))
+    screenshot(page, name)
 
 
 def test_page_shows_moving_robots(viewer: Watched) -> None:

@@ -23,10 +23,9 @@ from server.cell import load_cell
 from server.urdf import load_urdf
 from tests.conftest import free_port
 from tests.urdf.corpus import CORPUS
-from tests.web._browser import ROOT, open_page, server_process, watch
+from tests.web._browser import open_page, screenshot, server_process, watch
 
 TIMEOUT_MS = 180_000  # software rendering on shared cores: loading is slow
-ARTIFACTS = ROOT / "tests" / "artifacts"
 SHOWN = ("kuka_kr6", "puma560", "kuka_iiwa", "px100", "racecar")
 SPACING_MM = 1100.0
 MIN_PIXELS = 400  # a robot at this distance covers thousands; a stray edge a few dozen
@@ -115,8 +114,7 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
         open_page(page, f"{url}/?quality=4", TIMEOUT_MS)
         names = [*SHOWN, "broken"]
         settled(page, names)
-        ARTIFACTS.mkdir(exist_ok=True)
-        page.screenshot(path=str(ARTIFACTS / "corpus.png"))
+        screenshot(page, "corpus.png")
         everything = pixels(page)
 
         changed = {}
@@ -147,7 +145,7 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
         assert shown == loaded.shown(missing) and str(tmp_path) not in shown, shown
         assert shown.startswith("broken.urdf, line 2: link 'base': mesh file meshes/base.stl")
         card.scroll_into_view_if_needed()
-        page.screenshot(path=str(ARTIFACTS / "corpus-warning.png"))
+        screenshot(page, "corpus-warning.png")
         assert page.locator("details.robot-warnings").count() == 1
         assert math.isfinite(page.evaluate("window.linkview.renderInfo.triangles"))
         watched.assert_clean()

@@ -14,7 +14,7 @@ from mcap.reader import make_reader
 from playwright.sync_api import Browser
 
 from tests.conftest import free_port
-from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
+from tests.web._browser import Watched, open_page, post_json, screenshot, server_process, watch
 
 TIMEOUT_MS = 30_000
 ROBOT = "iiwa7"
@@ -82,9 +82,7 @@ def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str
     state = page.get_by_role("status").filter(has_text="NOT LIVE")
     assert state.is_visible() and "paused at" in state.inner_text()
     assert page.evaluate("document.body.classList.contains('not-live')")
-    artifacts = ROOT / "tests" / "artifacts"
-    artifacts.mkdir(exist_ok=True)
-    page.screenshot(path=str(artifacts / "timeline_paused.png"))
+    screenshot(page, "timeline_paused.png")
 
     # Arrows step one sample; Live returns to the present.
     page.keyboard.press("ArrowRight")
