@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -10,12 +11,14 @@ import tempfile
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
 import pytest
 from playwright.sync_api import Browser, ConsoleMessage, Page, sync_playwright
 
@@ -128,6 +131,35 @@ def open_page(page: Page, url: str, timeout_ms: float = 30_000) -> None:
         " return n.length > 0 && n.every(c => c > 0); }",
         timeout=timeout_ms,
     )
+
+
+CAMERA_FOV_DEG = 40.0
+"""The page's camera (static/js/scene.js): a perspective camera of this vertical field of
+view, Z up, looking from ``linkview.camera.position`` at its ``target``."""
+
+
+def on_screen(page: Page, points: Sequence[npt.ArrayLike]) -> list[tuple[float, float]]:
+    """Where world ``points`` (m) are drawn, in the page's CSS pixels (as a screenshot's),
+    worked out from the camera the page reports, not by the page."""
+    camera = page.evaluate("window.linkview.camera")
+    left, top, width, height = page.evaluate(
+        "(() => { const r = document.querySelector('#viewport canvas').getBoundingClientRect();"
+        " return [r.left, r.top, r.width, r.height]; })()"
+    )
+    eye, target = np.array(camera["position"]), np.array(camera["target"])
+    back = (eye - target) / np.linalg.norm(eye - target)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    focal = 1.0 / math.tan(math.radians(CAMERA_FOV_DEG) / 2)
+    out = []
+    for point in points:
+        seen = np.asarray(point, dtype=np.float64)[:3] - eye
+        depth = -float(seen @ back)
+        x = focal * height / width * float(seen @ right) / depth
+        y = focal * float(seen @ up) / depth
+        out.append((left + (x + 1) / 2 * width, top + (1 - y) / 2 * height))
+    return out
 
 
 SCREENSHOTS: Path | None = None

@@ -7,7 +7,6 @@ worked out from its mesh (trimesh) and the page's camera, must be drawn in red.
 from __future__ import annotations
 
 import io
-import math
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +17,10 @@ from playwright.sync_api import Browser, Page
 
 from tests.clearance.cells import two_arms
 from tests.conftest import free_port
-from tests.web._browser import ROOT, open_page, screenshot, server_process, watch
+from tests.web._browser import ROOT, on_screen, open_page, screenshot, server_process, watch
 
 TIMEOUT_MS = 60_000
 LINK0 = ROOT / "assets" / "iiwa7" / "link0.glb"
-FOV_DEG = 40.0
-"""The page's camera (static/js/scene.js): vertical field of view, Z up."""
 OUTLINE_SHARE = 0.7
 """Of the points along a box's 12 projected edges, the share with a box pixel within 3 px
 (a few fall outside the picture or under the panels)."""
@@ -50,27 +47,6 @@ def world_box(page: Page, robot: str) -> list[npt.NDArray[np.float64]]:
     world = np.array([matrix @ c for c in local])[:, :3]
     low, high = world.min(axis=0), world.max(axis=0)
     return [np.array([(high if k >> i & 1 else low)[i] for i in range(3)]) for k in range(8)]
-
-
-def screen(page: Page, point: npt.NDArray[np.float64]) -> tuple[float, float]:
-    """Where ``point`` (world, m) is drawn, in the picture's pixels: a look-at camera."""
-    camera = page.evaluate("window.linkview.camera")
-    rect = page.evaluate(
-        "(() => { const r = document.querySelector('#viewport canvas').getBoundingClientRect();"
-        " return [r.left, r.top, r.width, r.height]; })()"
-    )
-    eye, target = np.array(camera["position"]), np.array(camera["target"])
-    back = (eye - target) / np.linalg.norm(eye - target)
-    right = np.cross([0.0, 0.0, 1.0], back)
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
-    seen = point - eye
-    depth = -float(seen @ back)
-    f = 1.0 / math.tan(math.radians(FOV_DEG) / 2)
-    left, top, width, height = rect
-    x = f * height / width * float(seen @ right) / depth
-    y = f * float(seen @ up) / depth
-    return left + (x + 1) / 2 * width, top + (1 - y) / 2 * height
 
 
 def outline_drawn(red: npt.NDArray[np.bool_], corners: list[tuple[float, float]]) -> float:
@@ -117,7 +93,7 @@ def test_the_clearance_toggle_names_and_boxes_the_touching_links(
         red = box_pixels(boxed, plain)
         for robot in ("left", "right"):
             corners = world_box(page, robot)
-            hit = outline_drawn(red, [screen(page, c) for c in corners])
+            hit = outline_drawn(red, on_screen(page, corners))
             assert hit >= OUTLINE_SHARE, f"{robot}'s box: {hit:.0%} of its outline drawn"
     watched.assert_clean(expected="WebSocket connection to")
     page.close()
