@@ -16,6 +16,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlencode
 
 import numpy as np
 import numpy.typing as npt
@@ -248,6 +249,14 @@ def set_faults(mock_url: str, **faults: object) -> None:
     )
     with urllib.request.urlopen(request, timeout=5) as response:
         assert response.status == 200
+
+
+def history_json(url: str, t_from: float, t_to: float) -> dict[str, Any]:
+    """The demo source's samples between two times (unix s), as ``/api/history`` gives them."""
+    query = urlencode({"source": "demo", "from": t_from, "to": t_to, "format": "json"})
+    with urllib.request.urlopen(f"{url}/api/history?{query}", timeout=10) as response:
+        body: dict[str, Any] = json.loads(response.read())
+    return body
 
 
 def post_json(url: str, body: object) -> tuple[int, Any]:

@@ -24,6 +24,7 @@ from playwright.sync_api import Browser, Page
 from tests.conftest import free_port
 from tests.web._browser import (
     Watched,
+    history_json,
     open_page,
     post_json,
     screenshot,
@@ -32,6 +33,8 @@ from tests.web._browser import (
 )
 
 TIMEOUT_MS = 30_000
+TRAIL_TOL_M = 1e-6
+"""The trail keeps float32 (6e-8 m steps at 1 m): a micrometre is far below a wrong point."""
 NOT_NETWORK = ("data", "blob", "about")
 """URL schemes that never leave the page."""
 
@@ -258,9 +261,20 @@ def test_hiding_a_robot_removes_it(viewer: Watched) -> None:
     assert page.evaluate("window.linkview.robotState('kin12').visible") is True
 
 
-def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched) -> None:
+def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched, server_url: str) -> None:
     page = viewer.page
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 10")
+    # Every point drawn is where the TCP was at one of the source's samples: the server's
+    # /fk of the joints its history kept (base frame), not what the page computed.
+    drawn = np.array(page.evaluate("window.linkview.trail('iiwa7')"))
+    now = time.time()
+    (robot,) = [r for r in history_json(server_url, now - 20.0, now + 1.0)["robots"]
+                if r["name"] == "iiwa7"]  # fmt: skip
+    status, fk = post_json(f"{server_url}/api/robots/iiwa7/fk", {"joints": robot["joints"]})
+    assert status == 200
+    path = np.array([tcp[:3] for tcp, ok in zip(fk["tcp"], fk["ok"], strict=True) if ok])
+    nearest = np.linalg.norm(drawn[:, None, :] - path[None, :, :], axis=2).min(axis=1)
+    assert len(drawn) > 10 and nearest.max() <= TRAIL_TOL_M, nearest.max()
     page.uncheck("input[aria-label='draw the TCP trail of iiwa7']")
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints === 0")
     page.check("input[aria-label='draw the TCP trail of iiwa7']")

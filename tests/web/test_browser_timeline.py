@@ -2,19 +2,24 @@
 
 from __future__ import annotations
 
-import json
 import math
-import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
-from urllib.parse import urlencode
 
 import pytest
 from mcap.reader import make_reader
 from playwright.sync_api import Browser
 
 from tests.conftest import free_port
-from tests.web._browser import Watched, open_page, post_json, screenshot, server_process, watch
+from tests.web._browser import (
+    Watched,
+    history_json,
+    open_page,
+    post_json,
+    screenshot,
+    server_process,
+    watch,
+)
 
 TIMEOUT_MS = 30_000
 ROBOT = "iiwa7"
@@ -34,13 +39,6 @@ def viewer(browser: Browser, server_url: str) -> Iterator[Watched]:
     open_page(page, f"{server_url}/?quality=5", 3 * TIMEOUT_MS)  # software WebGL on busy cores
     yield watched
     page.close()
-
-
-def history_json(url: str, t_from: float, t_to: float) -> dict:  # type: ignore[type-arg]
-    query = urlencode({"source": "demo", "from": t_from, "to": t_to, "format": "json"})
-    with urllib.request.urlopen(f"{url}/api/history?{query}", timeout=10) as response:
-        body: dict = json.loads(response.read())  # type: ignore[type-arg]
-    return body
 
 
 def test_pause_seek_back_five_seconds_then_live(viewer: Watched, server_url: str) -> None:
