@@ -33,6 +33,8 @@ from tests.web._browser import (
 )
 
 TIMEOUT_MS = 30_000
+READOUTS_PER_S = 10
+"""The readout tick (READOUT_INTERVAL_MS, static/js/app.js): plots and cards redraw on it."""
 TRAIL_TOL_M = 1e-6
 """The trail keeps float32 (6e-8 m steps at 1 m): a micrometre is far below a wrong point."""
 NOT_NETWORK = ("data", "blob", "about")
@@ -569,8 +571,10 @@ def test_readouts_change_ten_times_a_second_not_every_frame(viewer: Watched) -> 
           requestAnimationFrame(tick);
         })"""
     )
-    per_s = counted["redraws"] / counted["seconds"]
-    assert 2 <= per_s <= 12, counted  # live, and at most the readout rate (however fast the frames)
+    # Live (redrawn at all in 2 s), and never more than the readout tick allows, however many
+    # frames this machine draws (a slower one draws and redraws less: no floor on a rate).
+    assert counted["redraws"] >= 1, counted
+    assert counted["redraws"] <= READOUTS_PER_S * counted["seconds"] + 1, counted
 
 
 def test_narrow_screen_collapses_the_panels(viewer: Watched) -> None:
