@@ -32,11 +32,16 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-def publish(script: str, title: str, body: str) -> None:
-    """Print ``body`` and write it as ``script``'s section of docs/benchmarks.md."""
+def publish(script: str, title: str, body: str, *, quick: bool = False) -> None:
+    """Print ``body`` and write it as ``script``'s section of docs/benchmarks.md.
+
+    A ``quick`` run (``--quick``: the smallest run that still measures, which
+    tests/test_bench.py starts) only prints: its figures are too rough to publish.
+    """
     print()
     print(body)
-    write_section(script, title, body)
+    if not quick:
+        write_section(script, title, body)
 
 
 def write_section(script: str, title: str, body: str) -> None:

@@ -330,10 +330,12 @@ def cluster_case(cluster: Cluster, viewers: int, warmup: float, seconds: float) 
     }
 
 
-async def gaps_when(port: int, sources: list[int], act: Callable[[], None]) -> list[float]:
+async def gaps_when(
+    port: int, sources: list[int], act: Callable[[], None], watch_s: float = FAILOVER_WATCH_S
+) -> list[float]:
     """Watch a replica; ``act`` after 2 s; each of ``sources``' longest gap in frames after it.
 
-    Watched for FAILOVER_WATCH_S after ``act``: a stopping worker may still
+    Watched for ``watch_s`` after ``act``: a stopping worker may still
     send a few frames, so the gap is the longest silence from just before
     ``act`` on, not the time to the first frame after it.
     """
@@ -342,7 +344,7 @@ async def gaps_when(port: int, sources: list[int], act: Callable[[], None]) -> l
     url = f"ws://127.0.0.1:{port}/ws"
     async with connect(url, subprotocols=[Subprotocol("linkview.2")]) as ws:
         began = time.monotonic()
-        async with asyncio.timeout(2.0 + FAILOVER_WATCH_S + 5.0):
+        async with asyncio.timeout(2.0 + watch_s + 5.0):
             async for data in ws:
                 now = time.monotonic()
                 if isinstance(data, bytes):
@@ -352,27 +354,31 @@ async def gaps_when(port: int, sources: list[int], act: Callable[[], None]) -> l
                 if not acted and now - began > 2.0:
                     act()
                     acted = time.monotonic()
-                if acted and now > acted + FAILOVER_WATCH_S:
+                if acted and now > acted + watch_s:
                     break
     gaps = []
     for times in arrivals.values():
         before = [t for t in times if t < acted]
         points = [before[-1] if before else acted]
-        points += [t for t in times if t >= acted] + [acted + FAILOVER_WATCH_S]
+        points += [t for t in times if t >= acted] + [acted + watch_s]
         gaps.append(float(np.diff(points).max()))  # never resumed: the whole watch
     return gaps
 
 
-def failover(cluster: Cluster) -> list[Case]:
+def failover(
+    cluster: Cluster,
+    hows: tuple[str, ...] = ("SIGKILL", "SIGTERM"),
+    watch_s: float = FAILOVER_WATCH_S,
+) -> list[Case]:
     """Kill the holder of the first source, then stop a holder cleanly: the gaps."""
     cases = []
     held = cluster.balanced(cluster.workers)
-    for how in ("SIGKILL", "SIGTERM"):
+    for how in hows:
         victim = next(w for w in cluster.workers if f"-{w.pid}-" in (held["c0"] or ""))
         lost = [i for i, s in enumerate(cluster.sources) if f"-{victim.pid}-" in (held[s] or "")]
         sig = signal.SIGKILL if how == "SIGKILL" else signal.SIGTERM
         act = functools.partial(victim.send_signal, sig)
-        gaps = asyncio.run(gaps_when(cluster.ports[0], lost, act))
+        gaps = asyncio.run(gaps_when(cluster.ports[0], lost, act, watch_s))
         try:
             victim.wait(60)  # a clean stop logs out of every controller first
         except subprocess.TimeoutExpired:
@@ -403,18 +409,24 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=6.0, help="measuring window")
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--full", action="store_true", help="the issue's 400 robots, 2 000 viewers")
-    parser.add_argument("--quick", action="store_true", help="10 robots, 10 viewers, 3 s; no docs")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="pub/sub only, 4 robots, 2 viewers, 1 s; one failover (SIGKILL); no docs",
+    )
     parser.add_argument("--transport-only", action="store_true", help="the first part; no docs")
     args = parser.parse_args()
     if args.full:
         args.robots, args.viewers, args.transport_sources = 400, 2000, 400
+    transports_run, hows, watch_s = TRANSPORTS, ("SIGKILL", "SIGTERM"), FAILOVER_WATCH_S
     if args.quick:
-        args.robots, args.viewers, args.seconds, args.warmup = 10, 10, 3.0, 2.0
-        args.transport_sources = 20
+        args.robots, args.viewers, args.seconds, args.warmup = 4, 2, 1.0, 1.0
+        args.transport_sources = 10
+        transports_run, hows, watch_s = TRANSPORTS[:1], ("SIGKILL",), 3.0
     load0 = os.getloadavg()[0]
 
     transports = []
-    for transport in TRANSPORTS:
+    for transport in transports_run:
         transports.append(transport_case(transport, args.transport_sources, args.seconds))
         print(transports[-1], flush=True)
     if args.transport_only:
@@ -424,12 +436,9 @@ def main() -> None:
         cluster.wait_live()
         cluster.balanced(cluster.workers)
         case = cluster_case(cluster, args.viewers, args.warmup, args.seconds)
-        gaps = failover(cluster)
+        gaps = failover(cluster, hows, watch_s)
     body = report(args, transports, case, gaps, load0)
-    if args.quick:
-        print("\n" + body)
-    else:
-        publish("bench/cluster.py", "A cluster through Redis", body)
+    publish("bench/cluster.py", "A cluster through Redis", body, quick=args.quick)
 
 
 def report(

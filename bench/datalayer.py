@@ -11,7 +11,8 @@ from the data layer's sample time (``t_source``) to the viewer's receipt.
 ``t_source`` is the middle of the round trip: their delay is slightly
 understated.
 
-Usage: ``python bench/datalayer.py [--seconds 5]``; writes docs/benchmarks.md.
+Usage: ``python bench/datalayer.py [--seconds 5] [--quick]``; writes docs/benchmarks.md except in
+quick runs.
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ import asyncio
 import contextlib
 import json
 import os
-import socket
 import statistics
 import subprocess
 import sys
@@ -33,10 +33,13 @@ from pathlib import Path
 import aiohttp
 from websockets.asyncio.client import connect
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _report import markdown_table, write_section  # noqa: E402
-
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(ROOT))
+from _report import markdown_table, publish  # noqa: E402
+
+from tests.conftest import free_port  # noqa: E402
+
 MODES = ("subscribe", "poll", "get")
 RATES_HZ = (50, 100)
 
@@ -53,12 +56,6 @@ class Result:
     frames_per_s: float
     p50_ms: float
     p99_ms: float
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 @contextlib.contextmanager
@@ -194,7 +191,9 @@ async def run_case(mock_url: str, relay: Relay, mode: str, rate_hz: int, seconds
     )
 
 
-async def main(seconds: float) -> list[Result]:
+async def main(
+    seconds: float, modes: tuple[str, ...] = MODES, rates_hz: tuple[int, ...] = RATES_HZ
+) -> list[Result]:
     port = free_port()
     mock_url = f"http://127.0.0.1:{port}"
     results: list[Result] = []
@@ -203,8 +202,8 @@ async def main(seconds: float) -> list[Result]:
         mock.stdout.readline()  # "mock ctrlX data layer at ..." once it listens
         relay = Relay(port)
         await relay.start()
-        for rate_hz in RATES_HZ:
-            for mode in MODES:
+        for rate_hz in rates_hz:
+            for mode in modes:
                 result = await run_case(mock_url, relay, mode, rate_hz, seconds)
                 print(
                     f"{mode:9s} {rate_hz:3d} Hz: {result.requests_per_s:7.1f} req/s "
@@ -219,7 +218,7 @@ async def main(seconds: float) -> list[Result]:
     return results
 
 
-def report(results: list[Result], seconds: float, nodes: int) -> None:
+def report(results: list[Result], seconds: float, nodes: int, quick: bool) -> None:
     header = [
         "mode", "rate", "data-layer requests/s", "bytes/s on the wire", "of which response bodies",
         "frames/s per robot", "t_source → viewer p50", "p99",
@@ -246,11 +245,10 @@ def report(results: list[Result], seconds: float, nodes: int) -> None:
         + markdown_table(header, rows)
     )
     title = "Data layer: subscription vs bulk poll vs GET per node"
-    write_section("bench/datalayer.py", title, body)
+    publish("bench/datalayer.py", title, body, quick=quick)
 
 
 def cell_nodes() -> int:
-    sys.path.insert(0, str(ROOT))
     from server.cell import load_cell
     from server.paths import DEMO_CELL
 
@@ -260,6 +258,13 @@ def cell_nodes() -> int:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="measuring time per case")
+    parser.add_argument(
+        "--quick", action="store_true", help="subscribe at 50 Hz only, 1 s; no docs update"
+    )
     options = parser.parse_args()
-    found = asyncio.run(main(options.seconds))
-    report(found, options.seconds, cell_nodes())
+    if options.quick:
+        options.seconds = 1.0
+        found = asyncio.run(main(options.seconds, ("subscribe",), (50,)))
+    else:
+        found = asyncio.run(main(options.seconds))
+    report(found, options.seconds, cell_nodes(), options.quick)

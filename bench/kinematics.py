@@ -12,7 +12,8 @@ load. Rows:
 * ``DHChain.inverse`` (numerical) on 200 random reachable targets from random
   starts, one call per target: success and median time per target.
 
-Usage: ``python bench/kinematics.py [--repeats 7]``; writes docs/benchmarks.md.
+Usage: ``python bench/kinematics.py [--repeats 7] [--quick]``; writes docs/benchmarks.md except
+in quick runs.
 """
 
 from __future__ import annotations
@@ -125,8 +126,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--fk-ratio", action="store_true", help="print the batch FK ratio only")
+    parser.add_argument(
+        "--quick", action="store_true", help="one repeat, 20 IK targets; no docs update"
+    )
     args = parser.parse_args()
-    repeats = args.repeats
+    repeats = 1 if args.quick else args.repeats
+    ik_targets = 20 if args.quick else IK_TARGETS
     if args.fk_ratio:
         robot = iiwa7()
         ours, theirs = batch_fk(robot, rtb_iiwa().ets(), configurations(robot), repeats)
@@ -166,8 +171,8 @@ def main() -> None:
     )
 
     chain = DHChain(robot.d, robot.a, robot.alpha, limits=robot.limits)  # plain numerical inverse
-    targets, _ = chain.forward(rng.uniform(lim[:, 0], lim[:, 1], (IK_TARGETS, 7)))
-    starts = rng.uniform(lim[:, 0], lim[:, 1], (IK_TARGETS, 7))
+    targets, _ = chain.forward(rng.uniform(lim[:, 0], lim[:, 1], (ik_targets, 7)))
+    starts = rng.uniform(lim[:, 0], lim[:, 1], (ik_targets, 7))
     per_target, solved = [], 0
     for target, start in zip(targets, starts, strict=True):
         times = []
@@ -178,7 +183,7 @@ def main() -> None:
         per_target.append(statistics.median(times))
         error = np.abs(chain.forward(q_sol)[0] - target).max()
         solved += bool(ok and error < 1e-9 and chain.within_limits(q_sol))
-    success = 100.0 * solved / IK_TARGETS
+    success = 100.0 * solved / ik_targets
     ik_ms = 1e3 * statistics.median(per_target)
     load_after = os.getloadavg()[0]
 
@@ -233,7 +238,7 @@ def main() -> None:
             verdict(ik_all_us <= 20.0, f"{ik_all_us - 20:.1f} us over", WHY["ik_all"]),
         ],
         [
-            "numerical IK, 200 random reachable targets, random starts: success",
+            f"numerical IK, {ik_targets} random reachable targets, random starts: success",
             f"{success:.1f} %",
             ">= 99 %",
             verdict(success >= 99.0, f"{99 - success:.1f} points short", WHY["ik_success"]),
@@ -253,7 +258,7 @@ def main() -> None:
         f"CPU {machine()}; numpy {np.__version__}, SIMD {numpy_simd()}."
     )
     table = markdown_table(header, rows)
-    publish("bench/kinematics.py", "Kinematics", f"{table}\n\n{notes}\n")
+    publish("bench/kinematics.py", "Kinematics", f"{table}\n\n{notes}\n", quick=args.quick)
 
 
 if __name__ == "__main__":

@@ -18,7 +18,8 @@ in its GPU process (SwiftShader's rasterising and compositing, by default) and
 in the page's renderer process, read from /proc, which says where the time
 goes. Frame rates depend on what else the machine does: the load average is
 printed with the table. Usage: ``python bench/page_fps.py
-[--seconds 5]``; writes docs/benchmarks.md.
+[--seconds 5] [--quick]``; writes docs/benchmarks.md except in quick runs (the default
+path, the lowest level and the cube only, 1 s each).
 """
 
 from __future__ import annotations
@@ -37,10 +38,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, publish  # noqa: E402
 
+from tests.conftest import free_port  # noqa: E402
 from tests.web._browser import (  # noqa: E402
     CHROMIUM,
     CHROMIUM_ARGS,
-    free_port,
     open_page,
     server_process,
 )
@@ -159,7 +160,9 @@ def frames_per_second(page: Page, seconds: float) -> Rate:
     return Rate(fps, cpu_ms)
 
 
-def reference_fps(page: Page, url: str, html: str, seconds: float) -> Rate:
+def reference_fps(
+    page: Page, url: str, html: str, seconds: float, warm_up_ms: float = WARM_UP_MS
+) -> Rate:
     """The frame rate of a reference page (served at the page's origin, outside its CSP)."""
     page.route(
         "**/bench/reference", lambda route: route.fulfill(body=html, content_type="text/html")
@@ -167,7 +170,7 @@ def reference_fps(page: Page, url: str, html: str, seconds: float) -> Rate:
     try:
         page.goto(f"{url}/bench/reference")
         page.wait_for_function("() => window.ready === true")
-        page.wait_for_timeout(WARM_UP_MS)
+        page.wait_for_timeout(warm_up_ms)
         return frames_per_second(page, seconds)
     finally:
         page.unroute("**/bench/reference")
@@ -185,12 +188,12 @@ def webgl_renderer(page: Page) -> str:
 
 
 def page_fps(
-    page: Page, url: str, quality: str, seconds: float
+    page: Page, url: str, quality: str, seconds: float, warm_up_ms: float = WARM_UP_MS
 ) -> tuple[Rate, float, dict[str, int]]:
     """The page's frame rate at a pinned level, its plots' redraws/s, what it drew per frame."""
     open_page(page, f"{url}/?quality={quality}")
     page.select_option("#selected-robot", "iiwa7")  # seven joint plots
-    page.wait_for_timeout(WARM_UP_MS)
+    page.wait_for_timeout(warm_up_ms)
     assert page.evaluate("window.linkview.robotState('iiwa7').trailPoints") > 0, "trail is off"
     redraws = page.evaluate("window.linkview.plots.redraws")
     fps = frames_per_second(page, seconds)
@@ -204,11 +207,20 @@ def load() -> str:
     return f"{one:.2f} (1 min), {five:.2f} (5 min)"
 
 
-def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]], str]:
-    """Rows for one browser: each level pinned, auto after adapting, the two references."""
+def measure_path(
+    page: Page, url: str, seconds: float, quick: bool = False
+) -> tuple[list[list[str]], str]:
+    """Rows for one browser: each level pinned, auto after adapting, the two references.
+
+    ``quick``: the lowest level and the cube only, after a 1 s warm-up.
+    """
     rows: list[list[str]] = []
+    warm_up_ms = 1000 if quick else WARM_UP_MS
+    lowest = len(LEVELS) - 1
     for index, name in enumerate(LEVELS):
-        rate, plots, info = page_fps(page, url, str(index), seconds)
+        if quick and index != lowest:
+            continue
+        rate, plots, info = page_fps(page, url, str(index), seconds, warm_up_ms)
         rows.append(
             [
                 f"page, level {index} ({name})",
@@ -218,6 +230,11 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
             ]
         )
         print(" | ".join(rows[-1]), flush=True)
+    lowest_cube = CUBE_PAGE % {"antialias": "false", "shadows": "false"}
+    if quick:
+        rate = reference_fps(page, url, lowest_cube, seconds, warm_up_ms)
+        rows.append(["reference: bare cube", *rate.cells(), "", ""])
+        return rows, webgl_renderer(page)
     open_page(page, f"{url}/?quality=auto")
     page.select_option("#selected-robot", "iiwa7")
     page.wait_for_timeout(AUTO_SETTLE_MS)
@@ -240,10 +257,9 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
         ]
     )
     print(" | ".join(rows[-1]), flush=True)
-    lowest = CUBE_PAGE % {"antialias": "false", "shadows": "false"}
     for label, html in (
         ("reference: the page's stage, no robots, no DOM", STAGE_PAGE),
-        ("reference: bare cube", lowest),
+        ("reference: bare cube", lowest_cube),
     ):
         rows.append([label, *reference_fps(page, url, html, seconds).cells(), "", ""])
         print(" | ".join(rows[-1]), flush=True)
@@ -253,7 +269,15 @@ def measure_path(page: Page, url: str, seconds: float) -> tuple[list[list[str]],
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="counting time per run")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="default path, lowest level and cube, 1 s each; no docs update",
+    )
     args = parser.parse_args()
+    paths = dict(list(PATHS.items())[:1]) if args.quick else PATHS
+    if args.quick:
+        args.seconds = 1.0
     load_before = load()
     sections: list[str] = []
     with (
@@ -261,11 +285,11 @@ def main() -> None:
         server_process(free_port(), Path(tmp) / "server.log") as url,
         sync_playwright() as pw,
     ):
-        for path, flags in PATHS.items():
+        for path, flags in paths.items():
             print(f"-- {path}", flush=True)
             browser = pw.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=flags)
             page = browser.new_page(viewport=VIEWPORT)
-            rows, renderer = measure_path(page, url, args.seconds)
+            rows, renderer = measure_path(page, url, args.seconds, args.quick)
             browser.close()
             table = markdown_table(
                 [
@@ -290,7 +314,7 @@ def main() -> None:
         "in the same browser at the lowest level's settings. Load average before: "
         f"{load_before}; after: {load_after}.\n\n" + "\n\n".join(sections) + "\n"
     )
-    publish("bench/page_fps.py", "Page frame rate with software rendering", body)
+    publish("bench/page_fps.py", "Page frame rate with software rendering", body, quick=args.quick)
 
 
 if __name__ == "__main__":

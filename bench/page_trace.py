@@ -18,8 +18,9 @@ matter without a GPU:
 
 Cases: the page's stage (no robots, no DOM) and the page at its lowest level,
 in Chromium's default path (with ``--disable-gpu`` the compositor is not in
-the GPU process and these slices do not exist). Usage: ``python bench/page_trace.py [--seconds 3]``;
-writes docs/benchmarks.md.
+the GPU process and these slices do not exist). Usage: ``python bench/page_trace.py
+[--seconds 3] [--quick]``; writes docs/benchmarks.md except in quick runs (the page at its
+lowest level once, 1 s).
 """
 
 from __future__ import annotations
@@ -41,7 +42,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, publish  # noqa: E402
 from page_fps import LEVELS, PATHS, STAGE_PAGE, VIEWPORT, WARM_UP_MS  # noqa: E402
 
-from tests.web._browser import CHROMIUM, free_port, open_page, server_process  # noqa: E402
+from tests.conftest import free_port  # noqa: E402
+from tests.web._browser import CHROMIUM, open_page, server_process  # noqa: E402
 
 CATEGORIES = ["viz", "gpu", "cc", "toplevel", "benchmark", "gpu.angle"]
 SLICES = {
@@ -101,7 +103,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=3.0, help="traced time per case")
     parser.add_argument("--repeats", type=int, default=2, help="runs of each case, alternating")
+    parser.add_argument(
+        "--quick", action="store_true", help="the page once, 1 s, short warm-up; no docs update"
+    )
     args = parser.parse_args()
+    if args.quick:
+        args.seconds, args.repeats = 1.0, 1
     lowest = len(LEVELS) - 1
     rows: list[list[str]] = []
     load0 = os.getloadavg()
@@ -112,7 +119,9 @@ def main() -> None:
     ):
         path = next(iter(PATHS))  # the default: SwiftShader in the GPU process
         browser = pw.chromium.launch(executable_path=str(CHROMIUM), headless=True, args=PATHS[path])
-        cases = ("the page's stage, no robots, no DOM", f"page, level {lowest}")
+        cases: tuple[str, ...] = ("the page's stage, no robots, no DOM", f"page, level {lowest}")
+        if args.quick:
+            cases = cases[1:]
         for case in [c for _ in range(args.repeats) for c in cases]:
             page = browser.new_page(viewport=VIEWPORT)
             if case.startswith("page"):
@@ -120,7 +129,7 @@ def main() -> None:
                 page.select_option("#selected-robot", "iiwa7")  # seven joint plots
             else:
                 stage(page, url)
-            page.wait_for_timeout(WARM_UP_MS)
+            page.wait_for_timeout(1000 if args.quick else WARM_UP_MS)
             rows.append([case, *per_frame(traced(page, args.seconds), args.seconds)])
             print(" | ".join(rows[-1]), flush=True)
             page.close()
@@ -139,7 +148,8 @@ def main() -> None:
         f"alternating. Load average (1 min) {load0[0]:.2f} before, {load1[0]:.2f} after."
     )
     body = f"{notes}\n\n{markdown_table(header, rows)}\n"
-    publish("bench/page_trace.py", "Page frames in Chromium's GPU process, traced", body)
+    title = "Page frames in Chromium's GPU process, traced"
+    publish("bench/page_trace.py", title, body, quick=args.quick)
 
 
 if __name__ == "__main__":

@@ -195,19 +195,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short runs; no docs update")
     args = parser.parse_args()
-    runs, window = (1, 8.0) if args.quick else (3, 20.0)
+    runs, window = (1, 2.0) if args.quick else (3, 20.0)
     load = os.getloadavg()[0]
     demo = load_cell(DEMO_CELL)
     with tempfile.TemporaryDirectory() as folder:
         off, on = [], []
         for _ in range(runs):
-            off.append(server_cpu(None, 4.0, window))
-            on.append(server_cpu(Path(folder) / "rec", 4.0, window))
-        data_s = 60.0 if args.quick else 300.0
+            warm_up = 1.0 if args.quick else 4.0
+            off.append(server_cpu(None, warm_up, window))
+            on.append(server_cpu(Path(folder) / "rec", warm_up, window))
+        data_s = 10.0 if args.quick else 300.0
         work_demo, size_demo = recorder_work(demo, data_s, Path(folder))
         iiwa_cell = dataclasses.replace(demo, robots=(demo.robots[1],))
         work_arm, size_arm = recorder_work(iiwa_cell, data_s, Path(folder))
-    timing = asyncio.run(window_timing(3 if args.quick else 7))
+    timing = asyncio.run(window_timing(1 if args.quick else 7))
 
     arm_mb_h = size_arm / data_s * 3600 / 1e6
     demo_mb_h = size_demo / data_s * 3600 / 1e6

@@ -134,9 +134,11 @@ async def acquire_us(samples: list[Sample], sources: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=20000)
-    parser.add_argument("--quick", action="store_true", help="2 000 samples; no docs update")
+    parser.add_argument(
+        "--quick", action="store_true", help="200 samples, 1 and 10 sources; no docs update"
+    )
     args = parser.parse_args()
-    count = 2000 if args.quick else args.samples
+    count = 200 if args.quick else args.samples
     chunks = publish_cycles(count)
     nodes = sorted(ARM_JOINTS)
     items = [[decode_event(e, NODES_PREFIX) for e in SseParser().feed(c)] for c in chunks]
@@ -158,7 +160,7 @@ def main() -> None:
 
     read_us = per_sample_us(parse, count) + per_sample_us(gather, count)
     rows = []
-    for sources in TURN_SIZES:
+    for sources in TURN_SIZES[:2] if args.quick else TURN_SIZES:
         acquire = asyncio.run(acquire_us(samples, sources))
         rows.append([str(sources), f"{read_us:.1f}", f"{acquire:.1f}", f"{read_us + acquire:.1f}"])
         print(" | ".join(rows[-1]), flush=True)

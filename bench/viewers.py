@@ -206,10 +206,12 @@ def main() -> None:
     parser.add_argument("--protocol", default="1,2", help="protocols (comma list of 1, 2)")
     parser.add_argument("--seconds", type=float, default=5.0, help="measuring window per case")
     parser.add_argument("--warmup", type=float, default=1.5, help="after every viewer is in")
-    parser.add_argument("--quick", action="store_true", help="smoke run: 1 and 10 viewers, 2 s")
+    parser.add_argument(
+        "--quick", action="store_true", help="smoke run: 10 viewers on protocol 2, 1 s"
+    )
     args = parser.parse_args()
     if args.quick:
-        args.viewers, args.seconds, args.warmup = "1,10", 2.0, 1.0
+        args.viewers, args.protocol, args.seconds, args.warmup = "10", "2", 1.0, 0.5
     cases, load0 = [], os.getloadavg()[0]
     for n in map(int, args.viewers.split(",")):
         for protocol in map(int, args.protocol.split(",")):

@@ -7,6 +7,7 @@ import dataclasses
 import random
 import shutil
 import socket
+import tempfile
 from collections.abc import AsyncIterator, Callable, Iterator
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -15,6 +16,7 @@ import pytest
 import uvicorn
 from aiohttp import web
 from hypothesis import settings as hypothesis_settings
+from hypothesis.configuration import set_hypothesis_home_dir
 
 from server.cell import Cell, Robot, load_cell
 from server.config import Settings
@@ -24,9 +26,23 @@ from server.web import create_app
 from server.web.serve import server_config
 
 # Hypothesis' 200 ms per example is a timing floor: on a loaded 2-core machine it fails
-# properties that hold. Examples are bounded by count (max_examples), not by time.
-hypothesis_settings.register_profile("linkview", deadline=None)
+# properties that hold. Examples are bounded by count (max_examples), not by time. No
+# example database: it would be written into the checkout (.hypothesis/), and tests write
+# only in temporary folders; a failing example is printed with the failure instead.
+hypothesis_settings.register_profile("linkview", deadline=None, database=None)
 hypothesis_settings.load_profile("linkview")
+# Hypothesis keeps a cache of our code's constants in its home folder, by default
+# ``.hypothesis/`` in the working directory (the checkout); it fills it while it collects
+# the tests, before any fixture runs, so the folder is set here.
+_HYPOTHESIS_HOME = Path(tempfile.mkdtemp(prefix="linkview-hypothesis-"))
+set_hypothesis_home_dir(_HYPOTHESIS_HOME)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _hypothesis_home_removed() -> Iterator[None]:
+    """Hypothesis' temporary home, removed when the session ends."""
+    yield
+    shutil.rmtree(_HYPOTHESIS_HOME, ignore_errors=True)
 
 
 @pytest.fixture(scope="session", autouse=True)

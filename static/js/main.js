@@ -58,6 +58,13 @@ window.linkview = Object.freeze( {
 		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns } : null;
 
 	},
+	/** A robot's TCP trail as drawn: [ x, y, z ] per point, base frame (m), oldest first. */
+	trail( name ) {
+
+		const view = app.robots.views.get( name );
+		return view ? view.trail.points() : null;
+
+	},
 	/** The plots: which robot, how often they were redrawn, and the newest point of each. */
 	get plots() {
 

@@ -83,6 +83,16 @@ class Trail {
 
 	}
 
+	/** The points drawn now, oldest first: [ x, y, z ] in the base frame (m), for tests. */
+	points() {
+
+		const { start, count } = this.geometry.drawRange;
+		const out = [];
+		for ( let i = start; i < start + count; i ++ ) out.push( Array.from( this._positions.subarray( 3 * i, 3 * i + 3 ) ) );
+		return out;
+
+	}
+
 	/** Points drawn now (for tests: the buffer never grows). */
 	get length() {
 

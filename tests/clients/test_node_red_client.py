@@ -1,143 +1,153 @@
-"""The mock serves a client that calls the API exactly as Node-RED's ctrlX nodes do.
+"""The mock serves Bosch Rexroth's Node-RED ctrlX client as a device does.
 
-See ``node_red.py`` for what is imitated and why (the real npm package could
-not be installed). Runs over HTTPS on a free loopback port; the blocking
-client runs in a thread.
+The client is the real one: ``lib/`` of node-red-contrib-ctrlx-automation 1.9.10
+(MIT), vendored unmodified in ``node_red_ctrlx/`` (its ORIGIN.md), with its npm
+dependencies pinned there. Under Node 20, ``node_red_ctrlx/drive.js`` calls its
+``CtrlxCore`` (login, read, browse, metadata, write, create, delete, subscribe,
+logout) as the Data Layer Request and Subscribe nodes do, against the mock over
+HTTPS on a free loopback port, and prints what each call gave.
 """
 
 from __future__ import annotations
 
 import asyncio
+import json
 import re
+import shutil
 import time
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
+from urllib.parse import quote, urlsplit
 
 from server.mock_ctrlx import build_app
-from tests.clients.node_red import (
-    ConfigSubscription,
-    CtrlxCore,
-    CtrlxProblemError,
-    encode_uri,
-    filetime_to_ms,
-)
 from tests.ctrlx.helpers import KIN12, Mock, running
 
+NODE = shutil.which("node")
+CLIENT = Path(__file__).resolve().parent / "node_red_ctrlx"
 NOPE = "motion/axs/nope/state/values/actual/pos"
 DTEST = "plc/app/Application/sym/PLC_PRG/dTest"
 HEX8 = re.compile(r"[0-9A-F]{8}")
+ENCODE_URI_SAFE = ";,/?:@&=+$-_.!~*'()#"
+"""What JavaScript's ``encodeURI`` (ECMA-262) leaves as it is besides letters and digits."""
+FILETIME_EPOCH_S = 11644473600
+DRIVE_LIMIT_S = 60.0
+EVENTS = "/automation/api/v2/events/"
 
 
-def requests_and_commands(core: CtrlxCore) -> dict[str, Any]:
-    """The Data Layer Request node's operations, as its examples use them."""
-    seen: dict[str, Any] = {"login": core.log_in()}
-    seen["read"] = core.datalayer_read(KIN12[0])
-    seen["read_with_data"] = core.datalayer_read(DTEST, {"type": "double", "value": 1.0})
-    seen["browse"] = core.datalayer_read("motion/axs", kind="browse")
-    seen["metadata"] = core.datalayer_read(KIN12[0], kind="metadata")
-    seen["write"] = core.datalayer_write(DTEST, {"type": "double", "value": 2.5})
-    seen["reset"] = core.datalayer_write("motion/axs/kin12_a0/cmd/reset")  # no body at all
-    seen["create_reset"] = core.datalayer_create("motion/grp/kin12/cmd/reset")
-    target = {"type": "object", "value": {"axsPos": [5.0, -5.0]}}
-    seen["create"] = core.datalayer_create("motion/grp/kin12/cmd/pos-abs", target)
-    for name, call in [
-        ("missing", lambda: core.datalayer_read(NOPE)),
-        ("delete", lambda: core.datalayer_delete(KIN12[0])),
-        ("no_argument", lambda: core.datalayer_write("motion/grp/kin12/cmd/pos-abs")),
-    ]:
-        try:
-            call()
-        except CtrlxProblemError as err:
-            seen[name] = err
-    return seen
+def is_number(value: Any) -> bool:
+    """A JSON number (JavaScript writes 2.0 as 2)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
-def subscribe(core: CtrlxCore, deadline_s: float = 10.0) -> tuple[ConfigSubscription, dict]:
-    """Three Data Layer Subscribe nodes on one subscription, one of them on a bad node."""
-    config = ConfigSubscription()
-    got: dict[str, dict[str, list[Any]]] = {}
-    for node_id, path in (("a", KIN12[0]), ("b", KIN12[1]), ("c", NOPE)):
-        got[node_id] = {"updates": [], "errors": []}
-
-        def callback(err: Exception | None, data: Any, mine: dict = got[node_id]) -> None:
-            mine["errors" if err else "updates"].append(err or data)
-
-        config.register(node_id, path, callback)
-    # The settings as Node-RED keeps them: strings from the editor.
-    options = {"publishIntervalMs": "20", "errorIntervalMs": "100", "keepaliveIntervalMs": "1000",
-               "samplingIntervalUs": "20000", "queueBehaviour": "DiscardOldest",
-               "queueSize": "10"}  # fmt: skip
-    stream_path = core.create_subscription(config.paths(), options)
-    source = core.open_event_source(stream_path)
-    end = time.monotonic() + deadline_s
+async def drive(mock: Mock, plan: list[list[Any]]) -> list[dict[str, Any]]:
+    """Each step's outcome (``{"ok": result}`` or ``{"error": ...}``), login first, logout last."""
+    assert NODE is not None, "node is missing: Node 20 runs Bosch Rexroth's client"
+    installed = CLIENT / "node_modules" / "launchdarkly-eventsource"
+    assert installed.is_dir(), f"run `npm ci` in {CLIENT} (the README's test command does)"
+    url = urlsplit(mock.url)
+    proc = await asyncio.create_subprocess_exec(
+        NODE,
+        str(CLIENT / "drive.js"),
+        f"{url.hostname}:{url.port}",
+        "boschrexroth",
+        "boschrexroth",
+        json.dumps(plan),
+        stdout=asyncio.subprocess.PIPE,
+        stderr=asyncio.subprocess.PIPE,
+    )
     try:
-        while time.monotonic() < end:
-            event, data = source.next_event()
-            if event == "update":
-                config.on_update(data)
-            elif event == "error":
-                config.on_error(data)
-            if (
-                len(got["a"]["updates"]) >= 3
-                and len(got["b"]["updates"]) >= 3
-                and got["c"]["errors"]
-            ):
-                break
+        out, err = await asyncio.wait_for(proc.communicate(), DRIVE_LIMIT_S)
     finally:
-        source.close()
-    return config, got
+        if proc.returncode is None:
+            proc.kill()
+            await proc.wait()
+    assert proc.returncode == 0, err.decode()
+    results: list[dict[str, Any]] = json.loads(out)
+    return results
 
 
 async def test_node_red_requests_work_as_on_a_device(tmp_path: Path) -> None:
+    target = {"type": "object", "value": {"axsPos": [5.0, -5.0]}}
+    plan = [
+        ["read", KIN12[0]],
+        ["read", DTEST, {"type": "double", "value": 1.0}],
+        ["browse", "motion/axs"],
+        ["metadata", KIN12[0]],
+        ["write", DTEST, {"type": "double", "value": 2.5}],
+        ["write", "motion/axs/kin12_a0/cmd/reset"],  # no argument: no body at all
+        ["create", "motion/grp/kin12/cmd/reset"],
+        ["create", "motion/grp/kin12/cmd/pos-abs", target],
+        ["read", NOPE],
+        ["delete", KIN12[0]],
+        ["write", "motion/grp/kin12/cmd/pos-abs"],
+    ]
     async with running(tls_dir=tmp_path) as mock:
-        url = urlsplit(mock.url)
-        core = CtrlxCore(str(url.hostname), int(url.port or 443), "boschrexroth", "boschrexroth")
-        seen = await asyncio.wait_for(asyncio.to_thread(requests_and_commands, core), 30)
-        await asyncio.to_thread(core.log_out)
-    decoded = seen["login"]["token_decoded"]
+        login, *steps, logout = await drive(mock, plan)
+    (read, read_with_data, browse, metadata, write, reset, create_reset, create, missing,
+     delete, no_argument) = steps  # fmt: skip
+    decoded = login["ok"]["token_decoded"]
     assert decoded["exp"] - decoded["iat"] == 3600
-    assert seen["read"]["type"] == "double" and isinstance(seen["read"]["value"], float)
-    assert seen["read_with_data"] == {"type": "double", "value": 0.0}
-    assert "kin12_a0" in seen["browse"]["value"]
-    assert seen["metadata"]["value"]["unit"] == "deg"
-    assert seen["write"] == {"type": "double", "value": 2.5}
-    assert seen["reset"] is None and seen["create_reset"] is None
-    assert seen["create"]["value"] == {"axsPos": [5.0, -5.0]}
-    missing = seen["missing"]
-    assert (missing.status, missing.title, missing.instance) == (404, "DL_INVALID_ADDRESS", NOPE)
-    assert HEX8.fullmatch(missing.main_diagnosis_code)
-    assert HEX8.fullmatch(missing.detailed_diagnosis_code)
-    assert missing.severity == "Error" and missing.dynamic_description == NOPE
-    assert (seen["delete"].status, seen["delete"].instance) == (403, KIN12[0])
-    assert seen["no_argument"].status == 400
-    # Node-RED's paths go through encodeURI; the log shows the exact requests.
-    assert ("PUT", encode_uri(f"/automation/api/v2/nodes/{DTEST}"), 200) in mock.log
+    assert read["ok"]["type"] == "double" and is_number(read["ok"]["value"])
+    assert read_with_data["ok"] == {"type": "double", "value": 0.0}
+    assert "kin12_a0" in browse["ok"]["value"]
+    assert metadata["ok"]["value"]["unit"] == "deg"
+    assert write["ok"] == {"type": "double", "value": 2.5}
+    assert reset == {"ok": None} and create_reset == {"ok": None}
+    assert create["ok"]["value"] == {"axsPos": [5.0, -5.0]}
+    problem = missing["error"]
+    assert problem["problem"] is True
+    assert (problem["status"], problem["title"], problem["instance"]) == (
+        404,
+        "DL_INVALID_ADDRESS",
+        NOPE,
+    )
+    assert HEX8.fullmatch(problem["mainDiagnosisCode"])
+    assert HEX8.fullmatch(problem["detailedDiagnosisCode"])
+    assert problem["severity"] == "Error" and problem["dynamicDescription"] == NOPE
+    assert (delete["error"]["status"], delete["error"]["instance"]) == (403, KIN12[0])
+    assert no_argument["error"]["status"] == 400
+    assert logout == {"ok": None}
+    # The client builds its paths with encodeURI; the mock's log shows the exact requests.
+    assert ("PUT", quote(f"/automation/api/v2/nodes/{DTEST}", ENCODE_URI_SAFE), 200) in mock.log
     assert ("DELETE", "/identity-manager/api/v2/auth/token", 204) in mock.log
 
 
-async def test_node_red_subscription_routes_errors_by_instance(tmp_path: Path) -> None:
+async def test_node_red_subscription_delivers_updates_and_errors_naming_their_node(
+    tmp_path: Path,
+) -> None:
+    # The options as the subscription's configuration node hands them to the client: the
+    # editor's strings through parseInt (ctrlx-config-subscription.js), in ms and µs.
+    options = {
+        "publishIntervalMs": 20,
+        "errorIntervalMs": 100,
+        "keepaliveIntervalMs": 1000,
+        "samplingIntervalUs": 20000,
+        "queueBehaviour": "DiscardOldest",
+        "queueSize": 10,
+    }
     app = build_app(subscription_lifetime_s=0.3)
     async with running(app, tls_dir=tmp_path) as mock:
-        url = urlsplit(mock.url)
-        core = CtrlxCore(str(url.hostname), int(url.port or 443), "boschrexroth", "boschrexroth")
-        await asyncio.to_thread(core.log_in)
-        config, got = await asyncio.wait_for(asyncio.to_thread(subscribe, core), 30)
+        _, subscribed, _ = await drive(mock, [["subscribe", [*KIN12, NOPE], options, 3, 10_000]])
         await expired(mock)
-    assert ("POST", "/automation/api/v2/events/", 201) in mock.log
-    for node_id, node in (("a", KIN12[0]), ("b", KIN12[1])):
-        updates = got[node_id]["updates"]
-        assert len(updates) >= 3 and {u["node"] for u in updates} == {node}
-        assert got[node_id]["errors"] == []  # a bad node must not spoil the others
-        assert abs(filetime_to_ms(updates[-1]["timestamp"]) / 1000 - time.time()) < 5.0
-    assert got["c"]["updates"] == []
-    errors = got["c"]["errors"]
-    assert errors and all(e.instance == NOPE and e.status == 404 for e in errors)
-    assert config.resets == 0  # every error named its node: the subscription stayed up
+    updates, errors = subscribed["ok"]["updates"], subscribed["ok"]["errors"]
+    assert ("POST", EVENTS, 201) in mock.log
+    streams = [p for m, p, _ in mock.log if m == "GET" and p.startswith(EVENTS)]
+    assert len(streams) == 1, streams
+    assert re.fullmatch(EVENTS + r"node-red-[-0-9a-f]{36}", streams[0]), streams
+    for node in KIN12:
+        assert len(updates[node]) >= 3 and {u["node"] for u in updates[node]} == {node}
+        assert all(u["type"] == "double" and is_number(u["value"]) for u in updates[node])
+        newest_s = updates[node][-1]["timestamp"] / 1e7 - FILETIME_EPOCH_S
+        assert abs(newest_s - time.time()) < 5.0
+    assert updates[NOPE] == []
+    # The Subscribe node's configuration routes an error to the node its instance names.
+    assert errors and all(
+        e["problem"] and e["instance"] == NOPE and e["status"] == 404 for e in errors
+    ), errors
 
 
 async def expired(mock: Mock) -> None:
-    """The Node-RED client never deletes; the mock forgets the subscription after its lifetime."""
+    """The client never deletes its subscription; the mock forgets it after its lifetime."""
     async with asyncio.timeout(5):
         while len(mock.state.subscriptions):
             await asyncio.sleep(0.05)

@@ -82,6 +82,8 @@ class Counts:
     """What the device saw."""
 
     login_attempts: int = 0
+    login_times: list[float] = field(default_factory=list)
+    """When each login attempt arrived (our monotonic clock, s)."""
     logins: int = 0
     """Tokens issued (successful logins)."""
     rejected: int = 0
@@ -156,6 +158,7 @@ class FakeDevice:
 
     async def _login(self, request: web.Request) -> web.StreamResponse:
         self.counts.login_attempts += 1
+        self.counts.login_times.append(time.monotonic())
         body = await request.json()
         answer = self.behaviour.login
         if answer == "500":
@@ -191,7 +194,9 @@ class FakeDevice:
         if token not in self._valid:
             self.counts.rejected += 1
             return _problem(401, "Unauthorized", "the token is not valid", request.path)
-        claims = jwt.decode(token, self._key, algorithms=["HS256"], options={"verify_exp": False})
+        # Times are the device's to judge, on its own clock (``now``), not the host's.
+        unchecked = {"verify_exp": False, "verify_iat": False, "verify_nbf": False}
+        claims = jwt.decode(token, self._key, algorithms=["HS256"], options=unchecked)
         if self.behaviour.check_exp and "exp" in claims and claims["exp"] <= self.now():
             self.counts.rejected += 1
             return _problem(401, "Unauthorized", "the token has expired", request.path)

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import datetime as dt
 import json
+import logging
 import math
 from urllib.parse import unquote
 
 import jwt
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from server.ctrlx import (
@@ -19,6 +20,7 @@ from server.ctrlx import (
     NodeNotFound,
     SseParser,
     Token,
+    TokenManager,
     encode_node_path,
     filetime_from_unix,
     unix_from_filetime,
@@ -194,6 +196,32 @@ def test_a_controller_clock_behind_ours_changes_nothing_but_a_warning() -> None:
     assert ahead.renew_at() == pytest.approx(8.6) and ahead.clock_warning() is None
 
 
+async def test_a_clock_warning_is_given_once_and_ends_with_a_token_that_fits(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.INFO, "server.ctrlx.auth")
+    # Two tokens from a device an hour behind, then one from a device set right.
+    issued = iter([token(iat=1000.0, exp=1002.0)] * 2 + [token(iat=4600.0, exp=4602.0)])
+
+    async def fetch() -> str:
+        return next(issued)
+
+    async def no_sleep(_s: float) -> None:
+        pass
+
+    manager = TokenManager(fetch, wall=lambda: 4600.0, mono=lambda: 7.0, sleep=no_sleep)
+    warnings = []
+    stale = None
+    for _ in range(3):
+        stale = await manager.renew(stale)
+        warnings.append(manager.warning)
+    assert "about 1.0 h behind" in (warnings[0] or "") and warnings[1] == warnings[0]
+    assert warnings[2] is None
+    said = [r.getMessage() for r in caplog.records if r.name == "server.ctrlx.auth"]
+    assert sum("clock skew" in m for m in said) == 1, said
+    assert sum("fit our clock again" in m for m in said) == 1, said
+
+
 def test_tokens_without_a_usable_lifetime_are_renewed_only_on_rejection() -> None:
     backwards = Token.from_jwt(token(iat=5000.0, exp=1000.0), wall=5000.0, mono=0.0)
     assert backwards.lifetime_s is None and backwards.renew_at() is None
@@ -253,21 +281,35 @@ def event_of(kind: str, body: dict[str, object], cut: bool) -> SseEvent:
     return SseEvent(kind, None, data[:-1] if cut else data)
 
 
-EVENT = st.builds(
-    event_of, st.sampled_from(["update"] * 6 + ["keepalive", "error"]), PLAIN_BODY, st.just(False)
-) | st.builds(event_of, st.sampled_from(["update", "keepalive"]), OTHER_BODY, st.booleans())
+PLAIN_UPDATE = st.builds(event_of, st.just("update"), PLAIN_BODY, st.just(False))
+UPDATE = st.one_of(
+    *[PLAIN_UPDATE] * 6, st.builds(event_of, st.just("update"), OTHER_BODY, st.booleans())
+)
+"""Update events, mostly of plain numbers (as a publish cycle holds), some of anything."""
+PREFIX = "/automation/api/v2/nodes/"
 
 
-@given(st.lists(EVENT, max_size=4))
-def test_plain_updates_read_as_decode_event_reads_them(events: list[SseEvent]) -> None:
-    """The fast path for publish cycles gives what the general one gives, or leaves it to it."""
-    prefix = "/automation/api/v2/nodes/"
-    if any(e.event != "update" for e in events):
-        return  # only runs of updates are offered to the fast path
+def rows_of(fast: PlainUpdates) -> list[Update]:
+    return [Update(*row) for row in zip(fast.nodes, fast.t_sources, fast.values, strict=True)]
+
+
+@given(st.lists(PLAIN_UPDATE, min_size=1, max_size=4))
+def test_a_cycle_of_plain_updates_takes_the_fast_path_and_reads_as_decode_event_reads_it(
+    events: list[SseEvent],
+) -> None:
     fast = plain_updates([e.data for e in events])
-    if fast is not None:  # None: left to decode_event, event by event
-        rows = [Update(*row) for row in zip(fast.nodes, fast.t_sources, fast.values, strict=True)]
-        assert rows == [decode_event(e, prefix) for e in events]
+    assert fast is not None, "a cycle of plain float updates must take the fast path"
+    assert rows_of(fast) == [decode_event(e, PREFIX) for e in events]
+
+
+@given(st.lists(UPDATE, min_size=1, max_size=4))
+def test_what_the_fast_path_takes_reads_as_decode_event_reads_it(
+    events: list[SseEvent],
+) -> None:
+    """Whatever it does not leave to decode_event (None), it reads as decode_event does."""
+    fast = plain_updates([e.data for e in events])
+    assume(fast is not None)
+    assert rows_of(fast) == [decode_event(e, PREFIX) for e in events]
 
 
 def test_a_publish_cycle_of_float_updates_takes_the_fast_path() -> None:

@@ -121,21 +121,32 @@ async def test_unreachable_posture_gives_error_frames_not_nan() -> None:
 
 
 async def test_data_layer_down_then_up_recovers() -> None:
+    # The controller streams, goes away (its port refuses), and comes back on the same port.
     port = free_port()
     url = f"http://127.0.0.1:{port}"
-    async with running_server(Settings(ctrlx_url=url)) as base:
-        health = await wait_for_health(base, lambda h: h["sources"][0]["state"] == "error")
-        assert health["sources"][0]["error"] == f"cannot reach {url}: connection refused"
-        runner, _ = await serve(build_app(), "127.0.0.1", port)
-        try:
+    runner, _ = await serve(build_app(), "127.0.0.1", port)
+    try:
+        async with running_server(Settings(ctrlx_url=url)) as base:
+            await wait_for_health(base, lambda h: h["sources"][0]["state"] == "connected")
+            before = await latest_frames(base, {"kin12"})
+            await runner.cleanup()  # down
+            down = await wait_for_health(
+                base,
+                lambda h: h["sources"][0]["error"] == f"cannot reach {url}: connection refused",
+                timeout_s=30,
+            )
+            runner, _ = await serve(build_app(), "127.0.0.1", port)  # up again
             health = await wait_for_health(
                 base, lambda h: h["sources"][0]["state"] == "connected", timeout_s=30
             )
-            frames = await latest_frames(base, {"kin12"})
-        finally:
-            await runner.cleanup()
+            after = await latest_frames(base, {"kin12"})
+    finally:
+        await runner.cleanup()
+    assert before["kin12"]["ok"] is True
+    assert down["sources"][0]["state"] == "error" and down["status"] == "degraded"
     assert health["sources"][0]["error"] is None
-    assert frames["kin12"]["ok"] is True
+    assert after["kin12"]["ok"] is True
+    assert after["kin12"]["seq"] > before["kin12"]["seq"], "the same source streams on"
 
 
 async def test_passwords_and_tokens_never_reach_the_log(caplog: pytest.LogCaptureFixture) -> None:

@@ -4,8 +4,9 @@ One server process (token set, 2 s request deadline) serves the whole module. A
 viewer in a background thread reads the protocol-2 stream throughout and
 timestamps every frames message; each test attacks from the main thread and
 checks the frames that arrived during its attack against the rate the same
-viewer got before any attack (a ratio: absolute frame rates on a shared
-machine are benchmark figures, ``bench/hostile.py``), and the server's RSS.
+viewer got in the second just before it (a ratio from the same run: absolute
+frame rates on a shared machine are benchmark figures, ``bench/hostile.py``),
+and the server's RSS; the last test checks every attack window together.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import json
 import socket
+import statistics
 import struct
 import subprocess
 import sys
@@ -29,13 +31,18 @@ from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect as connect_sync
 
 from tests.conftest import free_port
-from tests.web._browser import server_process
+from tests.web._browser import ROOT, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-MIN_SHARE = 0.33
-"""Under attack the viewer keeps at least a third of its quiet frame rate (50/s on a quiet box)."""
+WINDOW_SHARE = 0.75
+"""In each attack the viewer keeps at least this share of the rate it had in the second just
+before (the same run, the machine's load of that moment): a quarter lost is the noise a shared
+2-core machine makes, no more."""
+MEDIAN_SHARE = 0.9
+"""Over all the attacks, the median share: issue 20's mark (45 of 50 frames a second)."""
 QUIET_S = 2.0
+BEFORE_S = 1.0
 MIB = 1 << 20
 
 
@@ -72,8 +79,9 @@ class Server:
         self.port = int(url.rsplit(":", 1)[1])
         self.quiet_fps = quiet_fps
         """Frames messages per second the viewer got before any attack."""
-        self.windows: list[tuple[float, float, float]] = []
-        """(frames/s, seconds, RSS growth in MiB) of each attack window so far."""
+        self.windows: list[tuple[float, float, float, float]] = []
+        """(frames/s, frames/s in the second before, seconds, RSS growth in MiB) of each
+        attack window so far."""
         self.cell: Path | None = None
         """The cell file it serves, where the attacks write (tests/e2e/test_hostile_cells.py)."""
 
@@ -94,7 +102,10 @@ class _Window:
         self.server = server
 
     def __enter__(self) -> _Window:
+        before = time.monotonic()
+        time.sleep(BEFORE_S)  # the reference: the viewer's rate just before, same conditions
         self.start = time.monotonic()
+        self.before_fps = self.server.viewer.fps(before, self.start)
         self.rss_before = self.server.rss_mib()
         return self
 
@@ -106,9 +117,9 @@ class _Window:
         assert viewer.is_alive(), f"the reading viewer died: {viewer.error!r}"
         fps = viewer.fps(self.start, end)
         self.rss_growth = server.rss_mib() - self.rss_before
-        server.windows.append((fps, end - self.start, self.rss_growth))
-        assert fps >= MIN_SHARE * server.quiet_fps, (
-            f"reading viewer fell to {fps:.1f} frames/s from {server.quiet_fps:.1f} before"
+        server.windows.append((fps, self.before_fps, end - self.start, self.rss_growth))
+        assert fps >= WINDOW_SHARE * self.before_fps, (
+            f"reading viewer fell to {fps:.1f} frames/s from {self.before_fps:.1f} just before"
         )
 
 
@@ -351,8 +362,19 @@ def test_heavy_transformation_requests_are_bounded_and_the_stream_holds(server: 
 
     client = [sys.executable, "-m", "tests.e2e._heavy_client", str(server.port), TOKEN]
     with server.attacked():
-        done = subprocess.run(client, capture_output=True, text=True, timeout=120, check=True)
+        done = subprocess.run(
+            client, cwd=ROOT, capture_output=True, text=True, timeout=120, check=True
+        )
     answers = json.loads(done.stdout)
     statuses = sorted(status for status, _ in answers)
     assert set(statuses) == {200, 503}, statuses  # some computed, the rest told to wait
     assert all(retry == "1" for status, retry in answers if status == 503), answers
+
+
+def test_the_attacks_together_left_the_reading_viewer_its_rate(server: Server) -> None:
+    """Over every attack window of this module (run it whole): the median share of the
+    viewer's rate kept is issue 20's mark, and no attack left memory behind."""
+    assert len(server.windows) >= 9, "run the whole module: the attacks come first"
+    shares = [fps / before for fps, before, _, _ in server.windows]
+    assert statistics.median(shares) >= MEDIAN_SHARE, server.windows
+    assert all(growth < 20 for *_, growth in server.windows), server.windows

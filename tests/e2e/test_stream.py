@@ -9,9 +9,11 @@ import math
 from typing import Any
 
 import aiohttp
+import pytest
 from websockets.asyncio.client import connect
 
 from server.config import Settings
+from server.mock_ctrlx import STATE_KEY, Machine, build_app
 from server.protocol import Frame, Hello, Status
 from tests.conftest import running_mock, running_server
 
@@ -47,12 +49,40 @@ async def read_messages(url: str, count: int, robot: str | None = None) -> list[
     return out
 
 
+POSES_DEG = [(12.5, -17.0), (-22.0, 8.0)]
+"""Where the test commands the mock's Type 12 (a0, a1 in degrees, as the data layer serves
+them): poses of its own choosing, not the mock's demo targets."""
+FRAMES_PER_POSE = 10
+
+
+async def frames_at(
+    ws: Any, machine: Machine, pose_deg: tuple[float, float], seen: list[dict[str, Any]]
+) -> list[Frame]:
+    """Commands ``pose_deg``; kin12's frames sampled once the mock stands there (every
+    message read goes to ``seen``)."""
+    settled = machine.now() + machine.command("kin12", pose_deg) + machine.lag_s + 0.05
+    frames: list[Frame] = []
+    while len(frames) < FRAMES_PER_POSE:
+        message = json.loads(await ws.recv())
+        seen.append(message)
+        if message["type"] == "frame" and message["robot"] == "kin12":
+            frame = Frame.model_validate(message)
+            if frame.t_source > settled:
+                frames.append(frame)
+    return frames
+
+
 async def test_viewer_gets_hello_then_frames_matching_seed_formula() -> None:
+    app = build_app()
+    machine = app[STATE_KEY].machine
     async with (
-        running_mock() as (_, mock_url),
+        running_mock(app) as (_, mock_url),
         running_server(Settings(ctrlx_url=mock_url)) as base,
+        connect(base.replace("http", "ws") + "/ws") as ws,
     ):
-        messages = await read_messages(base.replace("http", "ws") + "/ws", 40, robot="kin12")
+        async with asyncio.timeout(30):
+            messages = [json.loads(await ws.recv())]
+            posed = {pose: await frames_at(ws, machine, pose, messages) for pose in POSES_DEG}
 
     hello = Hello.model_validate(messages[0])
     assert hello.protocol == 1
@@ -60,25 +90,23 @@ async def test_viewer_gets_hello_then_frames_matching_seed_formula() -> None:
     assert robot.kinematics == "type12"
     assert [j.name for j in robot.joints] == ["a0", "a1"]
     assert robot.params["L1"] == 0.2
-
-    frames = [Frame.model_validate(m) for m in messages[1:] if m["type"] == "frame"]
     statuses = [Status.model_validate(m) for m in messages[1:] if m["type"] == "status"]
     assert statuses and statuses[-1].sources[0].state == "connected"
-    kin12 = [f for f in frames if f.robot == "kin12"]
-    assert len(kin12) >= 30
-    assert all(f.ok and f.error is None for f in kin12)
-    assert [f.seq for f in kin12] == sorted({f.seq for f in kin12})
-    assert len({tuple(f.joints) for f in kin12}) > 1, "the mock's axes should move"
-    for frame in kin12:
-        a0, a1 = (math.degrees(v) for v in frame.joints)
+
+    for (a0, a1), frames in posed.items():
+        # The expected values come from the commanded degrees alone, never from the frame.
         x_mm, y_mm = seed_tcp_mm(a0, a1)
-        assert math.isclose(frame.tcp[0] * 1000, x_mm, abs_tol=1e-9)
-        assert math.isclose(frame.tcp[1] * 1000, y_mm, abs_tol=1e-9)
-        assert frame.tcp[2] == 0.0
-        assert len(frame.links) == len(robot.links)
-        for pose in frame.links:
-            assert math.isclose(sum(c * c for c in pose[3:]), 1.0, rel_tol=1e-12)
-        assert frame.t_source <= frame.t_sent
+        assert [f.seq for f in frames] == sorted({f.seq for f in frames})
+        for frame in frames:
+            assert frame.ok and frame.error is None
+            assert frame.joints == pytest.approx([math.radians(a0), math.radians(a1)], abs=1e-12)
+            assert math.isclose(frame.tcp[0] * 1000, x_mm, abs_tol=1e-9)
+            assert math.isclose(frame.tcp[1] * 1000, y_mm, abs_tol=1e-9)
+            assert frame.tcp[2] == 0.0
+            assert len(frame.links) == len(robot.links)
+            for pose in frame.links:
+                assert math.isclose(sum(c * c for c in pose[3:]), 1.0, rel_tol=1e-12)
+            assert frame.t_source <= frame.t_sent
 
 
 async def test_health_reports_connected_source_and_sample_age() -> None:

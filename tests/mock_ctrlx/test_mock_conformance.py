@@ -26,9 +26,11 @@ from tests.mock_ctrlx.spec import (
     IM_API,
     NODE,
     RAW_DL,
+    VALUE_SCHEMAS,
     _read_type_parameter,
     check_request,
     component,
+    parse_event_stream,
 )
 
 
@@ -39,17 +41,46 @@ def test_errata_are_needed() -> None:
     assert "within one minute" in RAW_DL["paths"]["/events"]["post"]["description"]
     schema = _read_type_parameter(RAW_DL)["schema"]
     assert not OAS30Validator(schema).is_valid(schema["default"])
+    # Data.value: "type: object", yet its own example holds a string; a double is a number.
     data_example = RAW_DL["components"]["schemas"]["Data"]["example"]
     assert not component(RAW_DL, "Data").is_valid(data_example)
-    assert component(FIXED_DL, "Data").is_valid(data_example)
+    double = {"type": "double", "value": 1.5}
+    assert not component(RAW_DL, "Data").is_valid(double)
+    raw_enum = RAW_DL["components"]["schemas"]["Data"]["properties"]["type"]["enum"]
+    assert set(VALUE_SCHEMAS) == set(raw_enum)  # every type the description names
+    fixed_data = component(FIXED_DL, "Data")
+    for good in (double, {"type": "arfloat64", "value": [1.0]}, {"type": "object", "value": {}}):
+        assert fixed_data.is_valid(good), good
+    # The correction still checks the value, by its type (the published "object" included).
+    for bad in ({"type": "double", "value": "1.5"}, {"type": "object", "value": 1.5},
+                {"type": "arstring", "value": "{}"}, {"type": "bool8", "value": 1}):  # fmt: skip
+        assert not fixed_data.is_valid(bad), bad
+    # SSE_EventData.value: "type: string", yet its own stream example holds objects.
     stream_example = RAW_DL["paths"]["/events"]["get"]["responses"]["200"]["content"][
         "text/event-stream"
     ]["example"]
-    events = SseParser().feed(stream_example.replace(" \n", "\n").encode() + b"\n\n")
-    assert events and all(isinstance(json.loads(e.data)["value"], dict) for e in events)
-    sse_data = {**json.loads(events[0].data), "event": "update"}
-    assert not component(RAW_DL, "SSE_EventData").is_valid(sse_data)
-    assert component(FIXED_DL, "SSE_EventData").is_valid(sse_data)
+    events = parse_event_stream(stream_example.replace(" \n", "\n").encode() + b"\n\n")
+    assert events and all(isinstance(e["data"]["value"], dict) for e in events)
+    typed = {**events[1]["data"], "event": "update"}
+    assert typed["type"] == "object"
+    assert not component(RAW_DL, "SSE_EventData").is_valid(typed)
+    fixed_event = component(FIXED_DL, "SSE_EventData")
+    assert fixed_event.is_valid(typed)
+    keepalive = {"event": "keepalive", "node": "", "timestamp": 1, "value": ""}
+    assert fixed_event.is_valid(keepalive) and not fixed_event.is_valid({**keepalive, "value": 1})
+    assert not fixed_event.is_valid({**typed, "type": "double"})
+    # ReadNode's 200: a browse answer is a Data and a BrowseData, so "oneOf" refuses it.
+    browse = {"type": "arstring", "value": ["motion"]}
+    read_ok = RAW_DL["paths"]["/nodes/{Path}"]["get"]["responses"]["200"]["content"][
+        "application/json"
+    ]["schema"]
+    assert not OAS30Validator({**read_ok, "components": RAW_DL["components"]}).is_valid(browse)
+    fixed_read = FIXED_DL["paths"]["/nodes/{Path}"]["get"]["responses"]["200"]["content"][
+        "application/json"
+    ]["schema"]
+    fixed_read_validator = OAS30Validator({**fixed_read, "components": FIXED_DL["components"]})
+    assert fixed_read_validator.is_valid(browse)
+    assert not fixed_read_validator.is_valid({"type": "double", "value": "1.5"})
 
 
 @pytest.fixture

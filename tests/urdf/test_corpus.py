@@ -2,8 +2,9 @@
 
 For each robot of ``tests/urdf/corpus.py``: ``check`` passes on a cell holding
 them all; the pose of every link agrees with pinocchio (its own URDF parser,
-urdfdom, and its own kinematics) on 50 random configurations within the
-limits, to 1e-9 m and 1e-9 rad; every mesh converts to a GLB with triangles.
+urdfdom, and its own kinematics; xacro files as the ``xacro`` command prints
+them) on 50 random configurations within the limits, to 1e-9 m and 1e-9 rad;
+every mesh converts to a GLB with triangles.
 The browser test ``tests/web/test_browser_corpus.py`` looks at them on the page.
 """
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 import math
 import zlib
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import numpy.typing as npt
@@ -19,6 +21,7 @@ import pinocchio as pin
 import pytest
 import trimesh
 
+from server.kinematics.urdf import UrdfChain
 from server.urdf import link_meshes, load_urdf
 from server.urdf._paths import Packages
 from server.urdf._xacro import expand, is_xacro
@@ -28,6 +31,7 @@ from tests.urdf.corpus import CORPUS, Described
 from tests.urdf.real_xacro import real_xacro
 
 CONFIGS = 50
+MIMIC_FIXTURE = Path(__file__).parent / "fixtures" / "lift_gripper.urdf"
 TOL_M = 1e-9
 TOL_RAD = 1e-9
 FREE_RANGE = math.pi  # rad or m drawn for joints without limits
@@ -96,15 +100,28 @@ def rotation_angle(a: npt.NDArray[np.float64], b: npt.NDArray[np.float64]) -> fl
 def test_every_link_moves_as_pinocchio_says(robot: Described) -> None:
     ours = load_urdf(robot.path, robot.package_folders, args=robot.args)
     assert ours.warnings == (), ours.warnings
-    chain = ours.chain
-    model = pinocchio_model(robot)
+    assert_moves_as_pinocchio_says(ours.chain, pinocchio_model(robot), robot.name)
+
+
+def test_mimic_multipliers_and_offsets_move_as_pinocchio_says() -> None:
+    # No published description of the corpus has a mimic offset (all are 0): the fixture's
+    # flap follows its elbow with multiplier 0.5 and offset 0.1 rad.
+    mimics = [m.attrib for m in ElementTree.parse(MIMIC_FIXTURE).iter("mimic")]
+    assert {"joint": "elbow", "multiplier": "0.5", "offset": "0.1"} in mimics
+    ours = load_urdf(MIMIC_FIXTURE)
+    model = pin.buildModelFromUrdf(str(MIMIC_FIXTURE), mimic=True)
+    assert_moves_as_pinocchio_says(ours.chain, model, MIMIC_FIXTURE.name)
+
+
+def assert_moves_as_pinocchio_says(chain: UrdfChain, model: pin.Model, seed: str) -> None:
+    """Every link's pose agrees with pinocchio's on CONFIGS random configurations."""
     data = model.createData()
     moving = {model.names[i] for i, j in enumerate(model.joints) if i > 0 and j.nq > 0}
     assert set(chain.joint_names) == moving
     frames = [model.getFrameId(name, pin.BODY) for name in chain.link_names]
     assert all(f < len(model.frames) for f in frames), "a link pinocchio does not know"
 
-    rng = np.random.default_rng(zlib.crc32(robot.name.encode()))
+    rng = np.random.default_rng(zlib.crc32(seed.encode()))
     lo = np.where(np.isfinite(chain.limits[:, 0]), chain.limits[:, 0], -FREE_RANGE)
     hi = np.where(np.isfinite(chain.limits[:, 1]), chain.limits[:, 1], FREE_RANGE)
     qs = rng.uniform(lo, hi, (CONFIGS, chain.n_joints))
@@ -188,11 +205,13 @@ def test_a_legged_robot_on_a_floating_root(tmp_path: Path) -> None:
     )
     robot = load_urdf(scene, packages)
     (warning,) = robot.warnings
-    # Line 8 of what `xacro a1_in_world.urdf.xacro` prints (after its 4-line banner).
-    assert warning.startswith(f"{scene}, line 8 of its xacro output: joint 'world_to_trunk'")
+    # The line the xacro command prints the joint on (after its banner).
+    urdf = real_xacro(scene, {}, packages).stdout
+    line = next(i for i, text in enumerate(urdf.splitlines(), 1) if "world_to_trunk" in text)
+    assert warning.startswith(f"{scene}, line {line} of its xacro output: joint 'world_to_trunk'")
     assert "is floating: it is drawn fixed at its origin" in warning
     assert robot.link_names[:2] == ("world", "trunk") and len(robot.joint_names) == 12
-    model = pin.buildModelFromXML(expand(scene, {}, Packages(packages, tmp_path)).text, mimic=True)
+    model = pin.buildModelFromXML(urdf, mimic=True)
     assert model.joints[model.getJointId("world_to_trunk")].shortname() == "JointModelFreeFlyer"
     data = model.createData()
     rng = np.random.default_rng(1)

@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from server.urdf import MeshGeometry, UrdfError, load_urdf
-from server.urdf._paths import Packages
-from server.urdf._xacro import expand
+from tests.urdf.real_xacro import real_xacro
 
 TOOL_STL = Path(__file__).parent / "fixtures" / "mesh_description" / "meshes" / "tool.stl"
 
@@ -134,7 +133,7 @@ def test_an_error_in_the_expanded_urdf_names_its_line(tmp_path: Path) -> None:
     poses, _ = load_urdf(top).chain.link_poses(np.zeros(0))
     np.testing.assert_allclose(poses[1][:3, 3], [0, 0, 1])
     # The line is the one the xacro command prints the <origin> on, arguments given.
-    output = expand(top, {"xyz": "0 1"}, Packages({}, tmp_path)).text.splitlines()
+    output = real_xacro(top, {"xyz": "0 1"}, {}).stdout.splitlines()
     line = next(i for i, text in enumerate(output, 1) if "<origin" in text)
     with pytest.raises(
         UrdfError,

@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlencode
 
+import numpy as np
+import numpy.typing as npt
 import pytest
 from playwright.sync_api import Browser, ConsoleMessage, Page, sync_playwright
 
@@ -129,6 +134,49 @@ def open_page(page: Page, url: str, timeout_ms: float = 30_000) -> None:
     )
 
 
+CAMERA_FOV_DEG = 40.0
+"""The page's camera (static/js/scene.js): a perspective camera of this vertical field of
+view, Z up, looking from ``linkview.camera.position`` at its ``target``."""
+
+
+def on_screen(page: Page, points: Sequence[npt.ArrayLike]) -> list[tuple[float, float]]:
+    """Where world ``points`` (m) are drawn, in the page's CSS pixels (as a screenshot's),
+    worked out from the camera the page reports, not by the page."""
+    camera = page.evaluate("window.linkview.camera")
+    left, top, width, height = page.evaluate(
+        "(() => { const r = document.querySelector('#viewport canvas').getBoundingClientRect();"
+        " return [r.left, r.top, r.width, r.height]; })()"
+    )
+    eye, target = np.array(camera["position"]), np.array(camera["target"])
+    back = (eye - target) / np.linalg.norm(eye - target)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    up = np.cross(back, right)
+    focal = 1.0 / math.tan(math.radians(CAMERA_FOV_DEG) / 2)
+    out = []
+    for point in points:
+        seen = np.asarray(point, dtype=np.float64)[:3] - eye
+        depth = -float(seen @ back)
+        x = focal * height / width * float(seen @ right) / depth
+        y = focal * float(seen @ up) / depth
+        out.append((left + (x + 1) / 2 * width, top + (1 - y) / 2 * height))
+    return out
+
+
+SCREENSHOTS: Path | None = None
+"""Where ``screenshot`` saves (tests/web/conftest.py sets it to a folder of pytest's
+temporary ones, kept for the last few runs); None: a new temporary folder."""
+
+
+def screenshot(page: Page, name: str) -> bytes:
+    """A picture of ``page`` (PNG), also saved as ``name`` for people to look at, never in
+    the checkout."""
+    global SCREENSHOTS
+    if SCREENSHOTS is None:
+        SCREENSHOTS = Path(tempfile.mkdtemp(prefix="linkview-screenshots-"))
+    return page.screenshot(path=str(SCREENSHOTS / name))
+
+
 # Page-side sampler of the banner: its text every 50 ms, kept only when it changed.
 START_BANNER_LOG = """() => {
   const banner = document.getElementById('banner');
@@ -201,6 +249,14 @@ def set_faults(mock_url: str, **faults: object) -> None:
     )
     with urllib.request.urlopen(request, timeout=5) as response:
         assert response.status == 200
+
+
+def history_json(url: str, t_from: float, t_to: float) -> dict[str, Any]:
+    """The demo source's samples between two times (unix s), as ``/api/history`` gives them."""
+    query = urlencode({"source": "demo", "from": t_from, "to": t_to, "format": "json"})
+    with urllib.request.urlopen(f"{url}/api/history?{query}", timeout=10) as response:
+        body: dict[str, Any] = json.loads(response.read())
+    return body
 
 
 def post_json(url: str, body: object) -> tuple[int, Any]:

@@ -3,7 +3,7 @@
 Drives Debian's Chromium (``/usr/bin/chromium``, software WebGL through
 SwiftShader) with the playwright package; it never downloads a browser. One
 server (``python -m server``, the demo cell with its embedded mock controller)
-and one page serve the whole module; screenshots go to ``tests/artifacts/``.
+and one page serve the whole module; screenshots go to pytest's temporary folder.
 """
 
 from __future__ import annotations
@@ -22,10 +22,21 @@ from PIL import Image
 from playwright.sync_api import Browser, Page
 
 from tests.conftest import free_port
-from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
+from tests.web._browser import (
+    Watched,
+    history_json,
+    open_page,
+    post_json,
+    screenshot,
+    server_process,
+    watch,
+)
 
-ARTIFACTS = ROOT / "tests" / "artifacts"
 TIMEOUT_MS = 30_000
+READOUTS_PER_S = 10
+"""The readout tick (READOUT_INTERVAL_MS, static/js/app.js): plots and cards redraw on it."""
+TRAIL_TOL_M = 1e-6
+"""The trail keeps float32 (6e-8 m steps at 1 m): a micrometre is far below a wrong point."""
 NOT_NETWORK = ("data", "blob", "about")
 """URL schemes that never leave the page."""
 
@@ -62,8 +73,7 @@ def _names(page: Page) -> list[str]:
 
 
 def _screenshot(page: Page, name: str) -> None:
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / name))
+    screenshot(page, name)
 
 
 def test_page_shows_moving_robots(viewer: Watched) -> None:
@@ -253,9 +263,20 @@ def test_hiding_a_robot_removes_it(viewer: Watched) -> None:
     assert page.evaluate("window.linkview.robotState('kin12').visible") is True
 
 
-def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched) -> None:
+def test_trail_follows_the_tcp_and_can_be_switched_off(viewer: Watched, server_url: str) -> None:
     page = viewer.page
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints > 10")
+    # Every point drawn is where the TCP was at one of the source's samples: the server's
+    # /fk of the joints its history kept (base frame), not what the page computed.
+    drawn = np.array(page.evaluate("window.linkview.trail('iiwa7')"))
+    now = time.time()
+    (robot,) = [r for r in history_json(server_url, now - 20.0, now + 1.0)["robots"]
+                if r["name"] == "iiwa7"]  # fmt: skip
+    status, fk = post_json(f"{server_url}/api/robots/iiwa7/fk", {"joints": robot["joints"]})
+    assert status == 200
+    path = np.array([tcp[:3] for tcp, ok in zip(fk["tcp"], fk["ok"], strict=True) if ok])
+    nearest = np.linalg.norm(drawn[:, None, :] - path[None, :, :], axis=2).min(axis=1)
+    assert len(drawn) > 10 and nearest.max() <= TRAIL_TOL_M, nearest.max()
     page.uncheck("input[aria-label='draw the TCP trail of iiwa7']")
     page.wait_for_function("() => window.linkview.robotState('iiwa7').trailPoints === 0")
     page.check("input[aria-label='draw the TCP trail of iiwa7']")
@@ -550,8 +571,10 @@ def test_readouts_change_ten_times_a_second_not_every_frame(viewer: Watched) -> 
           requestAnimationFrame(tick);
         })"""
     )
-    per_s = counted["redraws"] / counted["seconds"]
-    assert 2 <= per_s <= 12, counted  # live, and at most the readout rate (however fast the frames)
+    # Live (redrawn at all in 2 s), and never more than the readout tick allows, however many
+    # frames this machine draws (a slower one draws and redraws less: no floor on a rate).
+    assert counted["redraws"] >= 1, counted
+    assert counted["redraws"] <= READOUTS_PER_S * counted["seconds"] + 1, counted
 
 
 def test_narrow_screen_collapses_the_panels(viewer: Watched) -> None:

@@ -5,8 +5,9 @@ KR 6 from xacro with COLLADA meshes, a PUMA 560 from xacro, pybullet's KUKA
 LBR iiwa, an Interbotix PincherX 100 with mimic fingers and xacro arguments,
 and the MIT RACECAR) and one written here whose mesh is missing.
 The lighter robots of the corpus are picked: software rendering on two shared
-cores pays for every triangle. The test looks at the screenshot's pixels: hiding a robot must change
-many of them, where it stands, so each robot is really drawn, not only in the DOM.
+cores pays for every triangle. The test looks at the screenshot's pixels: hiding a robot must
+change many of them, and those around where it stands (its links projected with the page's
+camera), so each robot is really drawn, and in its place, not only in the DOM.
 """
 
 from __future__ import annotations
@@ -23,13 +24,16 @@ from server.cell import load_cell
 from server.urdf import load_urdf
 from tests.conftest import free_port
 from tests.urdf.corpus import CORPUS
-from tests.web._browser import ROOT, open_page, server_process, watch
+from tests.web._browser import on_screen, open_page, screenshot, server_process, watch
 
 TIMEOUT_MS = 180_000  # software rendering on shared cores: loading is slow
-ARTIFACTS = ROOT / "tests" / "artifacts"
 SHOWN = ("kuka_kr6", "puma560", "kuka_iiwa", "px100", "racecar")
 SPACING_MM = 1100.0
 MIN_PIXELS = 400  # a robot at this distance covers thousands; a stray edge a few dozen
+REACH_PX = 60.0
+"""How far a robot's meshes reach beyond its link origins on screen, at most (here)."""
+WHERE_SHARE = 0.9
+"""Of the pixels a robot changes, the share around its own links (its shadow may fall out)."""
 
 BROKEN = """<robot name="broken">
   <link name="base"><visual><geometry><mesh filename="meshes/base.stl"/></geometry></visual></link>
@@ -40,6 +44,11 @@ BROKEN = """<robot name="broken">
   </joint>
 </robot>
 """
+
+
+STANDS: dict[str, np.ndarray] = {}
+"""Per robot, its link origins in the world (m) at rest: from the URDF (linkview's loader,
+checked against pinocchio by tests/urdf/test_corpus.py) and the base the cell gives it."""
 
 
 def robot_entry(name: str, file: Path, x_mm: float, extra: str = "") -> str:
@@ -55,6 +64,8 @@ def robot_entry(name: str, file: Path, x_mm: float, extra: str = "") -> str:
         for k, u in enumerate(units)
     )
     rest = np.clip(0.0, np.nan_to_num(chain.limits[:, 0]), np.nan_to_num(chain.limits[:, 1]))
+    poses, _ = chain.link_poses(rest)
+    STANDS[name] = poses[:, :3, 3] + [x_mm / 1000.0, 0.0, 0.0]
     return (
         f'[[robot]]\nname = "{name}"\nsource = "mock"\nbase = {{ xyz = [{x_mm}, 0, 0] }}\n'
         f'kinematics = {{ type = "urdf", file = "{file}" {extra} }}\n'
@@ -82,6 +93,23 @@ def pixels(page: Page) -> np.ndarray:
     page.evaluate("() => new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
     image = Image.open(io.BytesIO(page.screenshot())).convert("RGB")
     return np.asarray(image, dtype=np.int16)
+
+
+def stands(page: Page, name: str) -> tuple[float, float, float, float]:
+    """The screen rectangle (left, top, right, bottom; px) of the robot's link origins at rest
+    (``STANDS``), projected with the page's camera, widened by ``REACH_PX`` for the meshes
+    around them."""
+    points = on_screen(page, list(STANDS[name]))
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    return min(xs) - REACH_PX, min(ys) - REACH_PX, max(xs) + REACH_PX, max(ys) + REACH_PX
+
+
+def inside(diff: np.ndarray, box: tuple[float, float, float, float]) -> float:
+    """The share of the changed pixels within ``box``."""
+    rows, cols = np.nonzero(diff)
+    left, top, right, bottom = box
+    within = (cols >= left) & (cols <= right) & (rows >= top) & (rows <= bottom)
+    return float(within.mean()) if len(rows) else 0.0
 
 
 def settled(page: Page, names: list[str]) -> None:
@@ -115,23 +143,33 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
         open_page(page, f"{url}/?quality=4", TIMEOUT_MS)
         names = [*SHOWN, "broken"]
         settled(page, names)
-        ARTIFACTS.mkdir(exist_ok=True)
-        page.screenshot(path=str(ARTIFACTS / "corpus.png"))
+        screenshot(page, "corpus.png")
         everything = pixels(page)
 
-        changed = {}
+        canvas = page.evaluate(
+            "(() => { const r = document.querySelector('#viewport canvas').getBoundingClientRect();"
+            " return [r.left, r.top, r.width, r.height]; })()"
+        )
+        view = np.zeros(everything.shape[:2], dtype=bool)
+        left, top, width, height = (round(v) for v in canvas)
+        view[top : top + height, left : left + width] = True
+        changed, where = {}, {}
         for name in names:
             show = page.get_by_label(f"show {name}")
             show.uncheck()
             without = pixels(page)
             show.check()
             diff = np.abs(everything - without).sum(axis=2) > 30
+            diff &= view  # the robot's card and panels change too: the 3D view only
             changed[name] = int(diff.sum())
+            where[name] = inside(diff, stands(page, name))
             if name == "kuka_kr6":
                 # KUKA orange is in what it draws (its meshes' own colours, or the URDF's).
                 r, g, b = (everything[diff][:, c] for c in range(3))
                 assert int(((r > 150) & (r > g + 40) & (g > b)).sum()) > MIN_PIXELS
         assert all(count > MIN_PIXELS for count in changed.values()), changed
+        # Where it stands: the pixels it changed are around its own links on screen.
+        assert all(share >= WHERE_SHARE for share in where.values()), where
         # Links without a visual draw nothing: no ball-and-stick beside the meshes.
         stand_ins = page.evaluate(
             "names => names.map(n => window.linkview.robotState(n).standIns)", names
@@ -147,7 +185,7 @@ def test_published_robots_are_drawn_and_a_missing_mesh_is_told(
         assert shown == loaded.shown(missing) and str(tmp_path) not in shown, shown
         assert shown.startswith("broken.urdf, line 2: link 'base': mesh file meshes/base.stl")
         card.scroll_into_view_if_needed()
-        page.screenshot(path=str(ARTIFACTS / "corpus-warning.png"))
+        screenshot(page, "corpus-warning.png")
         assert page.locator("details.robot-warnings").count() == 1
         assert math.isfinite(page.evaluate("window.linkview.renderInfo.triangles"))
         watched.assert_clean()
