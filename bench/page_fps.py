@@ -37,13 +37,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, publish  # noqa: E402
 
-from tests.web._browser import (  # noqa: E402
-    CHROMIUM,
-    CHROMIUM_ARGS,
-    free_port,
-    open_page,
-    server_process,
-)
+from tests.conftest import free_port  # noqa: E402
+from tests.web._browser import CHROMIUM, CHROMIUM_ARGS, open_page, server_process  # noqa: E402
 
 VIEWPORT = {"width": 1280, "height": 800}
 LEVELS = [

@@ -41,7 +41,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from _report import markdown_table, publish  # noqa: E402
 from page_fps import LEVELS, PATHS, STAGE_PAGE, VIEWPORT, WARM_UP_MS  # noqa: E402
 
-from tests.web._browser import CHROMIUM, free_port, open_page, server_process  # noqa: E402
+from tests.conftest import free_port  # noqa: E402
+from tests.web._browser import CHROMIUM, open_page, server_process  # noqa: E402
 
 CATEGORIES = ["viz", "gpu", "cc", "toplevel", "benchmark", "gpu.angle"]
 SLICES = {
