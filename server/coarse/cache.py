@@ -8,7 +8,7 @@ import logging
 from collections import OrderedDict
 from pathlib import Path
 
-from .decimate import FORMAT, LINK_FACES, CoarseError, coarse_glb
+from .decimate import FORMAT, LINK_FACES, TOLERANCE, CoarseError, coarse_glb
 
 log = logging.getLogger(__name__)
 
@@ -19,7 +19,7 @@ CAPACITY = 512
 class CoarseMeshes:
     """The coarse GLB of a link mesh file (decimate.coarse_glb), by the file's content.
 
-    Keyed by a hash of the bytes (and the conversion's format and size), so a
+    Keyed by a hash of the bytes (and the conversion's format and sizes), so a
     changed file is converted again and a copy of a file is not; the least
     recently used are forgotten beyond ``capacity``. A file that cannot be made
     coarse is remembered too, with its reason, and logged once. Conversions run
@@ -27,8 +27,11 @@ class CoarseMeshes:
     never wait for them, and many viewers asking at once cost one conversion.
     """
 
-    def __init__(self, capacity: int = CAPACITY, link_faces: int = LINK_FACES) -> None:
+    def __init__(
+        self, capacity: int = CAPACITY, tolerance: float = TOLERANCE, link_faces: int = LINK_FACES
+    ) -> None:
         self.capacity = capacity
+        self.tolerance = tolerance
         self.link_faces = link_faces
         self.conversions = 0
         self._kept: OrderedDict[str, bytes | CoarseError] = OrderedDict()
@@ -37,7 +40,7 @@ class CoarseMeshes:
 
     def _key(self, data: bytes) -> str:
         digest = hashlib.sha256(data).hexdigest()
-        return f"{digest}:{FORMAT}:{self.link_faces}"
+        return f"{digest}:{FORMAT}:{self.tolerance}:{self.link_faces}"
 
     async def get(self, path: Path) -> bytes:
         """The coarse GLB of the GLB at ``path``; raises CoarseError if it has none."""
@@ -59,7 +62,7 @@ class CoarseMeshes:
         try:
             async with self._one_at_a_time:
                 result: bytes | CoarseError = await asyncio.to_thread(
-                    coarse_glb, data, self.link_faces
+                    coarse_glb, data, self.tolerance, self.link_faces
                 )
         except CoarseError as exc:
             log.warning("coarse mesh of %s: %s; the 2D view draws its full mesh", path, exc)
