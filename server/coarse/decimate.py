@@ -74,7 +74,7 @@ def _shares(faces: list[int], budget: int) -> list[int]:
 
 
 def _manifold(shape: Any, tolerance: float) -> Any | None:
-    """``shape`` simplified to ``tolerance`` (m) within its bounds, or None if no closed manifold."""
+    """``shape`` simplified to ``tolerance`` (m) in its bounds; None if it is no closed manifold."""
     mesh = m3.Mesh(
         vert_properties=np.asarray(shape.vertices, dtype=np.float32),
         tri_verts=np.asarray(shape.faces, dtype=np.uint32),

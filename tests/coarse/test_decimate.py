@@ -1,4 +1,4 @@
-"""Coarse link meshes: few triangles; the full mesh's place, size and colours (trimesh reads both)."""
+"""Coarse link meshes: few triangles, each part where, as large and as coloured as in the full."""
 
 from __future__ import annotations
 
