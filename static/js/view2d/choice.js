@@ -43,10 +43,11 @@ class ViewChoice {
 
 	}
 
-	/** What the badge says: { view, shown, text }. */
+	/** The view and what its badge says: { view, shown, text, pending (coarse meshes on their way) }. */
 	shown() {
 
-		return { view: this.stage.view, shown: ! this.badge.hidden, text: this.badge.hidden ? '' : this.badge.textContent.trim() };
+		const text = this.badge.hidden ? '' : this.badge.innerText.trim();
+		return { view: this.stage.view, shown: ! this.badge.hidden, text, pending: this.stage.renderer.coarse?.pending ?? 0 };
 
 	}
 

@@ -75,6 +75,15 @@ class CoarseMeshes {
 
 	}
 
+	/** How many coarse meshes are still on their way. */
+	get pending() {
+
+		let count = 0;
+		for ( const entry of this._entries.values() ) if ( entry.parts === null && ! entry.failed ) count ++;
+		return count;
+
+	}
+
 	/** Whether `url` has no coarse mesh (the server could not make one). */
 	failed( url ) {
 
