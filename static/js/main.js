@@ -34,6 +34,12 @@ window.linkview = Object.freeze( {
 		return app.robots.meshesLoaded;
 
 	},
+	/** Frames received so far (before coalescing), per robot name. */
+	get framesReceived() {
+
+		return Object.fromEntries( [ ...app.robots.views ].map( ( [ name, view ] ) => [ name, view.framesReceived ] ) );
+
+	},
 	/** Frames applied to the scene so far, per robot name. */
 	get framesApplied() {
 
