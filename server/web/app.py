@@ -18,6 +18,7 @@ from ..access import Access
 from ..cell import Cell
 from ..clearance import ClearanceService
 from ..cluster import Replica, broker_settings
+from ..coarse import CoarseMeshes
 from ..commissioning import Catalog, CellEditor
 from ..config import Settings
 from ..foxglove import FoxgloveEndpoint
@@ -89,6 +90,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
 
     app = FastAPI(title="linkview", lifespan=lifespan)
     app.state.max_viewers = settings.max_viewers
+    app.state.coarse_meshes = CoarseMeshes()  # the 2D view's link meshes
     token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
     hosts = HostPolicy(settings.host, settings.allow_host)
     app.add_middleware(Gatekeeper, token=token, allowed_origins=settings.allow_origin, hosts=hosts)

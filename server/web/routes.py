@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, HTTPException, Request
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, Response
 
 from ..cell.mesh_files import glb_problem
+from ..coarse import CoarseError, CoarseMeshes
 from ..paths import STATIC_DIR
 from ..runtime import Runtime
 from ..stream import load_summary
@@ -29,14 +30,25 @@ async def index() -> FileResponse:
 
 
 @router.get("/meshes/{robot}/{link}.glb", include_in_schema=False)
-async def mesh(robot: str, link: int, request: Request) -> FileResponse:
-    """The GLB of a robot's link (hello gives each link's URL)."""
+async def mesh(
+    robot: str, link: int, request: Request, detail: Literal["full", "coarse"] = "full"
+) -> Response:
+    """A robot's link GLB (hello gives its URL); ``?detail=coarse``: the 2D view's."""
     found = runtime_of(request).robot(robot)
     path = found.meshes[link] if found is not None and 0 <= link < len(found.meshes) else None
     # Checked when the cell was read, and again now: the file may have changed since.
     if path is None or glb_problem(path) is not None:
         raise HTTPException(status_code=404, detail=f"no mesh for link {link} of {robot!r}")
-    return FileResponse(path, media_type="model/gltf-binary")
+    if detail == "full":
+        return FileResponse(path, media_type="model/gltf-binary")
+    coarse: CoarseMeshes = request.app.state.coarse_meshes
+    try:
+        data = await coarse.get(path)
+    except CoarseError as exc:
+        raise HTTPException(
+            status_code=404, detail=f"no coarse mesh for link {link} of {robot!r}: {exc}"
+        ) from None
+    return Response(data, media_type="model/gltf-binary")
 
 
 @router.get("/api/robots")

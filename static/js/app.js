@@ -14,6 +14,7 @@ import { Stage } from './scene.js';
 import { SimPanel } from './sim.js';
 import { Socket } from './socket.js';
 import { Timeline } from './timeline.js';
+import { ViewChoice, askedView } from './view2d/choice.js';
 
 const PROTOCOL = 2; // server/protocol.py PROTOCOLS['linkview.2']
 // Every DOM readout (cards, plots, timeline, simulation) changes in one animation frame,
@@ -37,8 +38,8 @@ class App {
 		// levels it cannot carry (and climbs if it has headroom); the stage is built at it.
 		const webgl = probeWebGL();
 		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), Math.min( window.devicePixelRatio, 2 ), webgl?.software ? LEVELS.length - 1 : 0 );
-		this.stage = new Stage( root.getElementById( 'viewport' ), this.quality.settings(), webgl !== null );
-		root.getElementById( 'no-webgl' ).hidden = this.stage.webgl;
+		this.stage = new Stage( root.getElementById( 'viewport' ), this.quality.settings(), { webgl: webgl !== null, view: askedView() } );
+		this.viewChoice = new ViewChoice( root, this.stage ); // 3D or 2D, and the 2D view's badge
 		this.robots = new Robots( this.stage.world );
 		this.hud = new Hud( root, {
 			onShow: ( name, on ) => this.setShown( name, on ),
@@ -264,7 +265,6 @@ class App {
 
 	animate( time ) {
 
-		this.quality.tick( time );
 		const now = nowMs();
 		this.timeline.tick( time );
 		this.clearance.tick();
@@ -307,12 +307,13 @@ class App {
 			this.mapping.update( views );
 			this.following.update( now );
 			this.sim.update();
-			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${LEVELS[ this.quality.level ].name}`;
+			const drawing = this.stage.view === '2d' ? '2D view' : LEVELS[ this.quality.level ].name;
+			this.root.getElementById( 'fps' ).textContent = `${this.quality.fps.toFixed( 0 )} frames/s · ${drawing}`;
 			this.timeline.refresh();
 			this.plots.redraw();
 
 		}
-		this.stage.render();
+		this.quality.tick( time, this.stage.render() ); // frames that showed nothing new are not counted
 		this.labels.update( views, this.stage );
 
 	}
@@ -320,7 +321,7 @@ class App {
 	// Grey and a note for every robot that is not live: no frame yet, in error, or its source is down.
 	_updateStates() {
 
-		const simple = this.stage.settings.simpleMaterials;
+		const simple = this.stage.simpleMaterials;
 		for ( const view of this.views.values() ) {
 
 			view.setSimple( simple );

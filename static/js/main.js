@@ -1,3 +1,4 @@
+import * as THREE from 'three';
 import { App } from './app.js';
 
 // Opened with ?token=: the server has set its cookie by now, which every later request
@@ -33,6 +34,12 @@ window.linkview = Object.freeze( {
 		return app.robots.meshesLoaded;
 
 	},
+	/** Frames received so far (before coalescing), per robot name. */
+	get framesReceived() {
+
+		return Object.fromEntries( [ ...app.robots.views ].map( ( [ name, view ] ) => [ name, view.framesReceived ] ) );
+
+	},
 	/** Frames applied to the scene so far, per robot name. */
 	get framesApplied() {
 
@@ -55,7 +62,7 @@ window.linkview = Object.freeze( {
 	robotState( name ) {
 
 		const view = app.robots.views.get( name );
-		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns } : null;
+		return view ? { visible: view.group.visible, greyed: view.greyed, posed: view.posed, note: view.note, trailPoints: view.trail.length, latencyMs: view.latencyMs, standIns: view.standIns, color: `#${view.color.getHexString()}` } : null;
 
 	},
 	/** A robot's TCP trail as drawn: [ x, y, z ] per point, base frame (m), oldest first. */
@@ -118,6 +125,25 @@ window.linkview = Object.freeze( {
 		const { position } = app.stage.camera;
 		const { target } = app.stage.controls;
 		return { position: position.toArray(), target: target.toArray() };
+
+	},
+	/** Where a robot lies on screen: its bounding box's projection { left, top, right, bottom } (CSS px of the view's container), or null. */
+	screenBox( name ) {
+
+		const view = app.robots.views.get( name );
+		return view ? app.stage.screenBox( view.worldBox( new THREE.Box3() ) ) : null;
+
+	},
+	/** The view drawing the cell ('3d' or '2d') and its badge: { view, shown, text }. */
+	get view() {
+
+		return app.viewChoice.shown();
+
+	},
+	/** Frames drawn so far (frames with nothing new to show are not drawn). */
+	get framesDrawn() {
+
+		return app.stage.framesDrawn;
 
 	},
 	/** Draw calls and triangles of the last rendered frame. */

@@ -1,7 +1,6 @@
 // For a browser without WebGL (switched off by policy, a remote desktop, an old GPU
-// driver): the page keeps everything that needs no 3D, cards, readouts, plots, sources,
-// simulation, live. The scene is still built, so every module works as usual; it is
-// just never drawn.
+// driver, Chrome without its SwiftShader fallback): the stage draws the same scene with
+// Canvas 2D instead (view2d/), and everything else works as usual.
 
 // SwiftShader (Chromium without a usable GPU), llvmpipe (Mesa), Microsoft's WARP:
 // WebGL drawn by the CPU, where every pixel and draw call counts.
@@ -32,48 +31,4 @@ function probeWebGL() {
 
 }
 
-/** What the Stage uses of a THREE.WebGLRenderer, drawing nothing: animation frames still run. */
-class NoRenderer {
-
-	constructor() {
-
-		this.domElement = document.createElement( 'div' );
-		this.domElement.className = 'no-webgl-view';
-		this.shadowMap = { enabled: false, type: 0 };
-		this.toneMapping = 0;
-		this.info = { render: { calls: 0, triangles: 0, lines: 0 } };
-		this._frame = 0;
-		this._loop = null;
-
-	}
-
-	setAnimationLoop( loop ) {
-
-		this._loop = loop;
-		cancelAnimationFrame( this._frame );
-		if ( ! loop ) return;
-		const step = ( time ) => {
-
-			this._frame = requestAnimationFrame( step );
-			this._loop( time );
-
-		};
-		this._frame = requestAnimationFrame( step );
-
-	}
-
-	setPixelRatio() {}
-
-	setSize() {}
-
-	render() {}
-
-	dispose() {
-
-		this.setAnimationLoop( null );
-
-	}
-
-}
-
-export { NoRenderer, probeWebGL };
+export { probeWebGL };

@@ -21,7 +21,10 @@ const UP_AFTER_MS = 8000; // sustained headroom before trying a better level
 const RETRY_MS = 30000; // a level that proved too slow is not retried before this (doubling)
 
 /**
- * Counts animation frames and picks the quality level. In 'auto' it steps down
+ * Counts animation frames and picks the quality level. `fps` counts the frames drawn;
+ * the level follows how often the page gets an animation frame at all (`rate`, drawn
+ * or not: a frame with nothing new to draw is skipped, and the page that keeps up has
+ * them to spare). In 'auto' it steps down
  * one level whenever a 2 s window averages below 30 frames/s (two below 15), and up one level
  * after 8 s at 50 frames/s or more, but not back into a level that was too slow
  * until a back-off (30 s, doubling each time it fails again) has passed, so it
@@ -36,9 +39,11 @@ class Quality {
 		this.maxPixelRatio = maxPixelRatio;
 		this.mode = 'auto'; // or a level index, pinned
 		this.level = Math.max( 0, Math.min( level, LEVELS.length - 1 ) );
-		this.fps = 0; // frames/s over the last window
+		this.fps = 0; // frames drawn per second over the last window
+		this.rate = 0; // animation frames per second over the last window, drawn or not
 		this._windowStart = null;
 		this._frames = 0;
+		this._drawn = 0;
 		this._settleUntil = 0;
 		this._goodSince = null;
 		this._retryAfter = new Map(); // level -> [time it may be tried again, back-off ms]
@@ -61,42 +66,46 @@ class Quality {
 
 	}
 
-	/** Count one animation frame at `time` (ms, the animation loop's clock). */
-	tick( time ) {
+	/** Count one animation frame at `time` (ms, the animation loop's clock); `drawn`: whether it drew. */
+	tick( time, drawn = true ) {
 
 		if ( time < this._settleUntil ) return;
 		if ( this._windowStart === null ) {
 
 			this._windowStart = time;
 			this._frames = 0;
+			this._drawn = 0;
 			return;
 
 		}
 		this._frames ++;
+		if ( drawn ) this._drawn ++;
 		const elapsed = time - this._windowStart;
 		if ( elapsed < WINDOW_MS ) return;
-		this.fps = this._frames * 1000 / elapsed;
+		this.rate = this._frames * 1000 / elapsed;
+		this.fps = this._drawn * 1000 / elapsed;
 		this._windowStart = time;
 		this._frames = 0;
+		this._drawn = 0;
 		if ( this.mode === 'auto' ) this._decide( time );
 
 	}
 
 	_decide( time ) {
 
-		if ( this.fps < TARGET_FPS && this.level < LEVELS.length - 1 ) {
+		if ( this.rate < TARGET_FPS && this.level < LEVELS.length - 1 ) {
 
 			// This level is too slow: do not come back to it for a while. Far too
 			// slow (under half the target) skips a level, so a slow machine gets
 			// usable sooner.
 			const [ , backoff ] = this._retryAfter.get( this.level ) || [ 0, RETRY_MS / 2 ];
 			this._retryAfter.set( this.level, [ time + 2 * backoff, 2 * backoff ] );
-			const steps = this.fps < TARGET_FPS / 2 ? 2 : 1;
+			const steps = this.rate < TARGET_FPS / 2 ? 2 : 1;
 			this._set( Math.min( this.level + steps, LEVELS.length - 1 ), time );
 			return;
 
 		}
-		if ( this.fps >= HEADROOM_FPS && this.level > 0 ) {
+		if ( this.rate >= HEADROOM_FPS && this.level > 0 ) {
 
 			if ( this._goodSince === null ) this._goodSince = time;
 			const [ after ] = this._retryAfter.get( this.level - 1 ) || [ 0 ];

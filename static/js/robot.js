@@ -17,6 +17,7 @@ const _up = new THREE.Vector3( 0, 1, 0 );
 
 // One grey for every robot that is not live (no frame yet, in error, source down).
 const GREY = new THREE.MeshStandardMaterial( { color: 0xa3a8b0, roughness: 0.85, metalness: 0, transparent: true, opacity: 0.6 } );
+GREY.userData.wholeLink = true; // the 2D view draws every part of a link in it (view2d/)
 const _simple = new WeakMap(); // PBR material -> its Lambert stand-in
 const _coarse = new WeakMap(); // geometry -> Promise of its simplified copy
 const SIMPLE_SHARE = 0.15; // of a mesh's vertices kept at the lowest quality
@@ -471,6 +472,7 @@ class RobotView {
 		const material = new THREE.MeshStandardMaterial( {
 			color: this.color, transparent: true, opacity: 0.25, depthWrite: false, roughness: 0.6,
 		} );
+		material.userData.wholeLink = true; // as GREY
 		const nodes = this.nodes.map( ( node ) => {
 
 			const copy = new THREE.Object3D();

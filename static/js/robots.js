@@ -150,8 +150,15 @@ class Robots {
 	_mesh( url ) {
 
 		if ( ! this._meshes.has( url ) ) this._meshes.set( url, this._loader.loadAsync( url ) );
-		// Each use gets its own node tree; geometry and materials are shared.
-		return this._meshes.get( url ).then( ( gltf ) => gltf.scene.clone() );
+		// Each use gets its own node tree; geometry and materials are shared. The URL
+		// marks the tree's root: the 2D view draws its coarse copy (view2d/coarse.js).
+		return this._meshes.get( url ).then( ( gltf ) => {
+
+			const root = gltf.scene.clone();
+			root.userData.meshUrl = url;
+			return root;
+
+		} );
 
 	}
 

@@ -1,8 +1,9 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
-import { NoRenderer } from './no_webgl.js';
+import { FrameGate } from './frame_gate.js';
 import { OrientationAids } from './orientation.js';
+import { CanvasRenderer } from './view2d/canvas_renderer.js';
 
 // The robot data is Z up (metres); make every camera and light agree.
 THREE.Object3D.DEFAULT_UP.set( 0, 0, 1 );
@@ -41,9 +42,10 @@ class Stage {
 
 	/**
 	 * `settings`: the quality to start with (quality.js `settings()`); `webgl`: false
-	 * where the browser has none (nothing is drawn, everything else still runs).
+	 * where the browser has none; `view`: '3d' (WebGL) or '2d' (Canvas 2D, view2d/),
+	 * always '2d' without WebGL.
 	 */
-	constructor( container, settings, webgl = true ) {
+	constructor( container, settings, { webgl = true, view = '3d' } = {} ) {
 
 		this.container = container;
 		this.settings = { ...settings };
@@ -56,6 +58,9 @@ class Stage {
 		this.camera.position.set( 1.6, - 2.2, 1.4 );
 
 		this.webgl = webgl;
+		this.view = webgl ? view : '2d';
+		this.gate = new FrameGate(); // frames that would show nothing new are not drawn
+		this.framesDrawn = 0;
 		this.renderer = this._makeRenderer();
 		this.environment = null; // made when first wanted: seconds of work on software WebGL
 
@@ -87,7 +92,13 @@ class Stage {
 
 	_makeRenderer() {
 
-		if ( ! this.webgl ) return new NoRenderer();
+		if ( this.view === '2d' ) {
+
+			const canvas = new CanvasRenderer();
+			this.container.appendChild( canvas.domElement );
+			return canvas;
+
+		}
 		const renderer = new THREE.WebGLRenderer( { antialias: this.settings.antialias, alpha: true } );
 		renderer.setPixelRatio( this.settings.pixelRatio );
 		renderer.toneMapping = THREE.NeutralToneMapping;
@@ -103,7 +114,7 @@ class Stage {
 	// Soft image-based light from a neutral room; the room is Y up, so turn it to Z up.
 	_makeEnvironment() {
 
-		if ( ! this.webgl ) return; // the room's light is baked by the GPU
+		if ( this.view === '2d' ) return; // the room's light is baked by the GPU
 		this.pmrem = new THREE.PMREMGenerator( this.renderer );
 		const room = new RoomEnvironment();
 		this.environment = this.pmrem.fromScene( room, 0.04 ).texture;
@@ -185,6 +196,7 @@ class Stage {
 
 		const theme = this._dark.matches ? THEMES.dark : THEMES.light;
 		this._makeGrid( theme );
+		this.gate.invalidate();
 		this.floor.material.color.set( theme.shadow );
 		this.floor.material.opacity = this._dark.matches ? 0.35 : 0.18;
 
@@ -210,18 +222,8 @@ class Stage {
 		const recompile = changed( 'shadows' ) || changed( 'environment' );
 		const resize = changed( 'pixelRatio' );
 		this.settings = next;
-		if ( rebuild ) {
-
-			const old = this.renderer;
-			old.setAnimationLoop( null );
-			this._disposeEnvironment(); // made by the old renderer
-			this.renderer = this._makeRenderer();
-			old.domElement.remove();
-			old.dispose();
-			this.renderer.setAnimationLoop( this._loop );
-			this.resize();
-
-		}
+		this.gate.invalidate();
+		if ( rebuild ) this._replaceRenderer();
 		if ( resize ) {
 
 			this.renderer.setPixelRatio( next.pixelRatio );
@@ -234,6 +236,38 @@ class Stage {
 			if ( object.material ) for ( const m of [].concat( object.material ) ) m.needsUpdate = true;
 
 		} );
+
+	}
+
+	/** Draw with WebGL ('3d') or Canvas 2D ('2d'); '3d' needs WebGL. Returns the view now drawn. */
+	setView( view ) {
+
+		if ( view === this.view || ( view === '3d' && ! this.webgl ) ) return this.view;
+		this.view = view;
+		this._replaceRenderer();
+		this._applySettings();
+		return this.view;
+
+	}
+
+	/** Whether robots draw their merged, simplified meshes (the lowest level, in WebGL only). */
+	get simpleMaterials() {
+
+		return this.settings.simpleMaterials && this.view === '3d';
+
+	}
+
+	_replaceRenderer() {
+
+		const old = this.renderer;
+		old.setAnimationLoop( null );
+		this._disposeEnvironment(); // made by the old renderer
+		this.renderer = this._makeRenderer();
+		old.domElement.remove();
+		old.dispose();
+		this.renderer.setAnimationLoop( this._loop );
+		this.resize();
+		this.gate.invalidate();
 
 	}
 
@@ -290,6 +324,25 @@ class Stage {
 
 		const { left, width, height } = this.viewRect;
 		return { x: left + ( ndc.x + 1 ) / 2 * width, y: ( 1 - ndc.y ) / 2 * height };
+
+	}
+
+	/** The rectangle `box` (world frame) covers on screen: { left, top, right, bottom } in container CSS px, or null if empty. */
+	screenBox( box ) {
+
+		if ( box.isEmpty() ) return null;
+		const out = { left: Infinity, top: Infinity, right: - Infinity, bottom: - Infinity };
+		for ( let corner = 0; corner < 8; corner ++ ) {
+
+			_offset.set( corner & 1 ? box.max.x : box.min.x, corner & 2 ? box.max.y : box.min.y, corner & 4 ? box.max.z : box.min.z );
+			const at = this.toContainer( _offset.project( this.camera ) );
+			out.left = Math.min( out.left, at.x );
+			out.right = Math.max( out.right, at.x );
+			out.top = Math.min( out.top, at.y );
+			out.bottom = Math.max( out.bottom, at.y );
+
+		}
+		return out;
 
 	}
 
@@ -365,6 +418,7 @@ class Stage {
 		this.camera.aspect = width / height;
 		this.camera.updateProjectionMatrix();
 		this.renderer.setSize( width, height, false );
+		this.gate.invalidate();
 		const style = this.renderer.domElement.style;
 		style.left = `${left}px`;
 		style.width = `${width}px`;
@@ -372,10 +426,18 @@ class Stage {
 
 	}
 
+	/**
+	 * Draw a frame if it would show something new (frame_gate.js): a pose, the camera,
+	 * anything shown or hidden, the size. Returns whether it drew.
+	 */
 	render() {
 
 		this.controls.update();
+		const changed = this.gate.changed( this.scene, this.camera );
+		if ( ! changed && this.renderer.needsRedraw !== true ) return false;
 		this.renderer.render( this.scene, this.camera );
+		this.framesDrawn ++;
+		return true;
 
 	}
 
