@@ -17,7 +17,10 @@ const AXES = [
 function textSprite( text, color, height = LETTER_SCALE ) {
 
 	const canvas = document.createElement( 'canvas' );
-	const ctx = canvas.getContext( '2d' );
+	// On the CPU: the 2D view draws this canvas into its own every frame, and reading an
+	// accelerated one back from SwiftShader's GPU process took ~0.2 s a letter there
+	// (2 frames/s in Chromium's default path; WebGL uploads it once either way).
+	const ctx = canvas.getContext( '2d', { willReadFrequently: true } );
 	const font = `600 ${TEXT_PX}px system-ui, sans-serif`;
 	ctx.font = font;
 	canvas.width = Math.ceil( ctx.measureText( text ).width ) + 16;
