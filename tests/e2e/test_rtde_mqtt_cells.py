@@ -1,4 +1,5 @@
-"""RTDE and MQTT sources through the whole server: health, the page's status, recording, replay."""
+"""RTDE and MQTT sources through the whole server: health and the page's status (the
+example plant, with both, records and replays: tests/e2e/test_plant.py)."""
 
 from __future__ import annotations
 
@@ -20,11 +21,8 @@ from server.mock_ctrlx import Machine
 from server.mock_rtde import RtdeMock, demo_groups
 from server.mqtt import Mosquitto
 from tests.conftest import free_port, running_server
-from tests.e2e.test_faults import health_of, wait_for_health, wait_for_robots
-from tests.e2e.test_recording import read
+from tests.e2e.test_faults import health_of, wait_for_health
 
-ROOT = Path(__file__).resolve().parents[2]
-MIXED = ROOT / "cells" / "examples" / "ur_rtde_mqtt.toml"
 UR5E_DH = (
     'kinematics = { type = "dh", d = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6], '
     "a = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0], alpha_deg = [90.0, 0.0, 0.0, 90.0, -90.0, 0.0] }"
@@ -182,31 +180,3 @@ async def test_a_malformed_payload_is_named_in_health_and_a_good_one_streams(
             np.testing.assert_allclose(si, np.radians([12.5, 90.0]))
     finally:
         await broker.close()
-
-
-async def test_the_mixed_cell_streams_every_robot_records_and_replays(tmp_path: Path) -> None:
-    robots = ("ur5e", "positioner", "kin12", "iiwa7")
-    async with running_server(Settings(cell=MIXED)) as base, aiohttp.ClientSession() as http:
-        await wait_for_robots(base, robots, 100, timeout_s=30)
-        async with http.post(f"{base}/api/history/recording", json={"minutes": 1}) as r:
-            assert r.status == 200
-            saved = tmp_path / "saved.mcap"
-            saved.write_bytes(await r.read())
-    _, messages = read(saved)
-    counts = {robot: len(messages[f"/{robot}/joints"]) for robot in robots}
-    # Every robot at the frame cadence of the ctrlX source, recorded over the same time:
-    # RTDE's 500 Hz come out at 50 Hz (not ten times as many); the embedded broker's
-    # publisher may fall behind on a loaded machine, never ahead.
-    for robot in ("ur5e", "positioner", "kin12"):
-        assert 0.6 < counts[robot] / counts["iiwa7"] < 1.25, counts
-    stamps = [orjson_t(data) for _, data in messages["/ur5e/joints"]]
-    assert all(b > a for a, b in zip(stamps, stamps[1:], strict=False))  # no package twice
-
-    async with running_server(Settings(replay=saved, cell=MIXED)) as base:
-        health = await wait_for_robots(base, robots, 10)
-        assert {s["url"] for s in health["sources"]} == {"replay:saved.mcap"}
-
-
-def orjson_t(data: bytes) -> float:
-    value: float = json.loads(data)["t_source"]
-    return value
