@@ -23,33 +23,45 @@ DOC = ROOT / "docs" / "benchmarks.md"
 QUICK_LIMIT_S = 300.0
 """A bound, not a figure: the quick runs take 5 to 60 s here; this stops a hung one."""
 TABLE_RULE = re.compile(r"^\|(---\|)+$", re.M)
-OTHER_MODES = {"hostile": [["--quick", "--network"]]}
-"""Modes that run code the plain ``--quick`` does not (``--network``: issue 34's attacks)."""
-RUNS = [(p, ["--quick"]) for p in BENCHMARKS] + [
-    (p, mode) for p in BENCHMARKS for mode in OTHER_MODES.get(p.stem, [])
-]
+DEDICATED = {
+    "hostile": "tests/bench/test_bench_hostile.py",
+    "opcua_client": "tests/bench/test_bench_opcua_client.py",
+    "page_fps": "tests/bench/test_page_fps.py",
+    "sources": "tests/bench/test_bench_sources.py",
+}
+"""Benchmarks whose quick runs are tests of their own, which read the figures too (and run
+each part of bench/hostile.py apart): not run twice."""
+RUNS = [p for p in BENCHMARKS if p.stem not in DEDICATED]
 
 
-def test_every_benchmark_is_found() -> None:
-    names = {p.stem for p in BENCHMARKS}
-    assert {"kinematics", "page_fps", "page_trace", "cluster", "viewers"} <= names, names
-    assert {"sources", "opcua_client", "hostile"} <= names, names
-    assert set(OTHER_MODES) <= names, "a mode of a benchmark that is gone"
-
-
-@pytest.mark.parametrize(
-    ("script", "mode"), RUNS, ids=[" ".join([p.stem, *m[1:]]) for p, m in RUNS]
-)
-def test_benchmark_runs_its_quick_mode(script: Path, mode: list[str], tmp_path: Path) -> None:
+def run_quick(script: Path, tmp_path: Path, *mode: str) -> str:
+    """Run ``script`` (``--quick`` and ``mode``) in ``tmp_path``; its output, once it has
+    succeeded, printed a table and left docs/benchmarks.md as it was."""
     doc_before = DOC.read_bytes()
+    args = ["--quick", *mode]
     done = subprocess.run(
-        [sys.executable, str(script), *mode],
+        [sys.executable, str(script), *args],
         cwd=tmp_path,  # whatever a benchmark writes beside itself lands here, not in the checkout
         env={**os.environ, "LINKVIEW_CACHE_DIR": str(tmp_path / "cache")},  # servers' meshes
         capture_output=True,
         text=True,
         timeout=QUICK_LIMIT_S,
     )
-    assert done.returncode == 0, f"{script.name} {' '.join(mode)} failed:\n{done.stderr[-4000:]}"
-    assert TABLE_RULE.search(done.stdout), f"{script.name} printed no table:\n{done.stdout[-2000:]}"
-    assert DOC.read_bytes() == doc_before, f"{script.name} {' '.join(mode)} rewrote {DOC.name}"
+    named = f"{script.name} {' '.join(args)}"
+    assert done.returncode == 0, f"{named} failed:\n{done.stderr[-4000:]}"
+    assert TABLE_RULE.search(done.stdout), f"{named} printed no table:\n{done.stdout[-2000:]}"
+    assert DOC.read_bytes() == doc_before, f"{named} rewrote {DOC.name}"
+    return done.stdout
+
+
+def test_every_benchmark_is_found() -> None:
+    names = {p.stem for p in BENCHMARKS}
+    assert {"kinematics", "page_fps", "page_trace", "cluster", "viewers"} <= names, names
+    assert set(DEDICATED) <= names, "a benchmark that is gone"
+    for name, test in DEDICATED.items():  # their own test runs them quick
+        assert f'"{name}.py"' in (ROOT / test).read_text(), (name, test)
+
+
+@pytest.mark.parametrize("script", RUNS, ids=lambda p: p.stem)
+def test_benchmark_runs_its_quick_mode(script: Path, tmp_path: Path) -> None:
+    run_quick(script, tmp_path)

@@ -34,6 +34,9 @@ class Commissioning {
 		this.placeLegend = element( 'legend', null, 'Place' );
 		const grid = element( 'div', 'target-grid' );
 		this.inputs = {};
+		// Fields typed into and not yet placed: a hello (another edit's reload, which a busy
+		// server may send while the user types) must not put the old numbers back.
+		this._typed = new Set();
 		for ( const [ key, unit ] of PLACE_FIELDS ) {
 
 			const label = element( 'label' );
@@ -41,6 +44,7 @@ class Commissioning {
 			input.type = 'number';
 			input.step = 'any';
 			input.setAttribute( 'aria-label', `base ${key} in ${unit === 'mm' ? 'mm' : 'degrees'}` );
+			input.addEventListener( 'input', () => this._typed.add( key ) );
 			label.append( `${key} `, input, ` ${unit}` );
 			grid.append( label );
 			this.inputs[ key ] = input;
@@ -68,7 +72,12 @@ class Commissioning {
 			if ( ! event.value ) this._placeFromGroup();
 
 		} );
-		this.gizmo.addEventListener( 'objectChange', () => this._fieldsFrom( this.gizmo.object ) );
+		this.gizmo.addEventListener( 'objectChange', () => {
+
+			this._typed.clear(); // the gizmo says where the robot is now
+			this._fieldsFrom( this.gizmo.object );
+
+		} );
 		this.gizmoHelper = this.gizmo.getHelper();
 		this.gizmoHelper.visible = false;
 		stage.scene.add( this.gizmoHelper );
@@ -90,6 +99,8 @@ class Commissioning {
 	/** Commission `view` (a RobotView, or null); `views` are every robot by name. */
 	setRobot( view, views ) {
 
+		const same = view !== null && this.view !== null && view.name === this.view.name;
+		if ( ! same ) this._typed.clear();
 		this.view = view;
 		this.views = views;
 		this.place.hidden = view === null;
@@ -102,6 +113,7 @@ class Commissioning {
 
 	}
 
+	/** The fields from `object`'s pose, but for those typed into and not yet placed. */
 	_fieldsFrom( object ) {
 
 		const { position, quaternion } = object;
@@ -109,7 +121,7 @@ class Commissioning {
 		const values = [ ...position.toArray().map( ( v ) => v * 1000 ), ...rpy.map( ( a ) => a * RAD_TO_DEG ) ];
 		PLACE_FIELDS.forEach( ( [ key ], i ) => {
 
-			this.inputs[ key ].value = fixed( values[ i ], 3 );
+			if ( ! this._typed.has( key ) ) this.inputs[ key ].value = fixed( values[ i ], 3 );
 
 		} );
 
@@ -120,6 +132,7 @@ class Commissioning {
 
 		const values = PLACE_FIELDS.map( ( [ key ] ) => Number( this.inputs[ key ].value ) );
 		if ( ! this.view || ! values.every( Number.isFinite ) ) return;
+		this._typed.clear();
 		return this._placeBase( values.slice( 0, 3 ).map( ( v ) => v / 1000 ), values.slice( 3 ).map( ( a ) => a / RAD_TO_DEG ) );
 
 	}

@@ -205,8 +205,12 @@ async def test_redis_restarting_loses_only_the_frames_of_those_seconds(
     skipped = await frames_dropped(replicas[0]) - dropped_before
     missing = 0
     for i in range(4):
-        for part in (lambda t: t < stopped, lambda t: t > settled[0]):
+        for before, part in ((True, lambda t: t < stopped), (False, lambda t: t > settled[0])):
             seqs = [seq for t, j, seq, _ in seen.frames if j == i and part(t)]
+            if before and len(seqs) > 1 and seqs[1] < seqs[0]:
+                # The greeting: the newest frame the replica held when the viewer came, which
+                # may be the previous holder's if the balance moved the source just before.
+                seqs = seqs[1:]
             steps = np.diff(seqs)
             back_steps = [(k, int(step)) for k, step in enumerate(steps) if step < 1]
             assert len(seqs) >= SETTLED_FRAMES and not back_steps, (i, len(seqs), back_steps)

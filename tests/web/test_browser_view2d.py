@@ -8,6 +8,7 @@ page's camera), and what changes between two pictures.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -71,11 +72,28 @@ def in_view(page: Page, box: dict[str, float]) -> dict[str, float]:
     }
 
 
+def camera_at_rest(page: Page, timeout_s: float = 60.0) -> None:
+    """Wait until the camera holds still from one animation frame to the next.
+
+    The orbit's damping decays per frame, not per second: on a loaded machine, with
+    fewer frames, it runs for longer than any fixed wait.
+    """
+    deadline = time.monotonic() + timeout_s
+    before = page.evaluate("window.linkview.camera")
+    while True:
+        settle(page, 2)
+        now = page.evaluate("window.linkview.camera")
+        if now == before:
+            return
+        assert time.monotonic() < deadline, f"the camera still moves: {before} -> {now}"
+        before = now
+
+
 def still(page: Page) -> None:
     """Pause the timeline: the robots hold their pose; wait for the camera to come to rest."""
     page.get_by_role("button", name="pause on this moment (space)").click()
     page.wait_for_function("() => window.linkview.timeline.mode === 'paused'")
-    page.wait_for_timeout(1500)  # the orbit's damping runs out
+    camera_at_rest(page)
     settle(page)
 
 
@@ -115,7 +133,8 @@ def test_without_webgl_every_robot_is_drawn_in_its_colour_and_moves(
     second = shot(page)
     for name in ROBOTS:
         moved = int(changed(crop(first, boxes[name]), crop(second, boxes[name])).sum())
-        assert moved >= 300, (name, moved)  # its TCP marker alone: under 100
+        # Its TCP marker alone: under 100; kin12, small in this view, changed 286 px once.
+        assert moved >= 150, (name, moved)
     watched.assert_clean(expected="WebSocket connection to")
     page.close()
 

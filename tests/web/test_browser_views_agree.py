@@ -17,7 +17,7 @@ from playwright.sync_api import Browser, Page
 from tests.conftest import free_port
 from tests.web._browser import open_page, server_process, watch
 from tests.web._pixels import bounding_box, changed, crop, shot
-from tests.web.test_browser_view2d import TIMEOUT_MS, in_view, settle
+from tests.web.test_browser_view2d import TIMEOUT_MS, camera_at_rest, in_view, settle
 
 ROBOTS = ("kin12", "iiwa7", "positioner")
 AGREE_PX = 3
@@ -50,7 +50,7 @@ def test_both_views_draw_each_robot_in_the_same_place(browser: Browser, tmp_path
         page.get_by_role("checkbox", name="TCP trail", exact=True).uncheck()
         page.get_by_role("button", name="pause on this moment (space)").click()
         page.wait_for_function("() => window.linkview.timeline.mode === 'paused'")
-        page.wait_for_timeout(1500)  # the camera's damping runs out
+        camera_at_rest(page)
         settle(page)
         camera = page.evaluate("window.linkview.camera")
         in_3d = silhouettes(page)
