@@ -83,7 +83,7 @@ def camera_at_rest(page: Page, timeout_s: float = 60.0) -> None:
     while True:
         settle(page, 2)
         now = page.evaluate("window.linkview.camera")
-        if now == before:
+        if all(np.allclose(now[key], before[key], atol=1e-6) for key in now):  # a µm: at rest
             return
         assert time.monotonic() < deadline, f"the camera still moves: {before} -> {now}"
         before = now
