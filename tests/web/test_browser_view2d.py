@@ -108,6 +108,9 @@ def test_without_webgl_every_robot_is_drawn_in_its_colour_and_moves(
     assert badge.inner_text().startswith("2D view: this browser has no WebGL.")
     assert "graphics acceleration" in badge.inner_text()  # and how to turn WebGL on
     assert page.locator("#view-kind option[value='3d']").is_disabled()
+    # Opaque panels over the 2D view: no blending of them anew each frame (static/css).
+    panel = "getComputedStyle(document.getElementById('hud')).backgroundColor"
+    assert page.evaluate(panel) == "rgb(253, 253, 253)"
     page.get_by_role("checkbox", name="TCP trail", exact=True).uncheck()  # the robots alone move
     settle(page)
     first = shot(page)
