@@ -5,7 +5,7 @@ oversized viewer messages, 2000 idle connections, refused upgrades, a ping
 flood that never reads, a message flood, 20 concurrent 10 000-row ``/fk``)
 one after the other against one ``python -m server`` process, then those of
 tests/e2e/test_hostile_cells.py (cell files saved while it serves: a source
-that cannot start, 400 kB of nested brackets, 100 000 and 2 000 robots)
+whose recording counts past int64, 400 kB of nested brackets, 100 000 and 2 000 robots)
 against another that serves a cell file. For each it
 reports the frame rate of a protocol-2 viewer reading throughout, beside the
 rate it got before any attack, and the server's RSS: its peak during the
@@ -93,8 +93,8 @@ ATTACKS: list[tuple[str, Callable[[limits.Server], None]]] = [
 ]
 CELL_ATTACKS: list[tuple[str, Callable[[limits.Server], None]]] = [
     (
-        "cell saved with a source that cannot start (sample counter 2^70)",
-        cells.test_a_reload_that_cannot_start_keeps_the_sources_streaming,
+        "cell saved with a recording whose sample counter is 2^70",
+        cells.test_a_recording_with_a_counter_past_int64_is_refused_and_the_sources_keep_streaming,
     ),
     (
         "cell saved as 400 kB of nested brackets, then a good one",

@@ -130,7 +130,9 @@ def overflowing_recording(path: Path, robot: str) -> None:
         writer.finish()
 
 
-def test_a_reload_that_cannot_start_keeps_the_sources_streaming(server: Server) -> None:
+def test_a_recording_with_a_counter_past_int64_is_refused_and_the_sources_keep_streaming(
+    server: Server,
+) -> None:
     assert server.cell is not None
     urls = urls_of(server)
     overflowing_recording(server.cell.parent / "overflow.mcap", "c")
