@@ -221,7 +221,10 @@ async def test_a_bomb_saved_into_a_served_cell_goes_unnoticed(tmp_path: Path) ->
         rates = viewer.rates(started, ended)
         assert rates, (started, ended)
         assert statistics.mean(rates) >= 0.9 * statistics.mean(baseline), (baseline, rates)
-        assert min(rates) >= 0.9 * min(baseline), (baseline, rates)
+        # Throughout: no second falls far. A second may dip by the machine's other work
+        # (34 against 43 once, with a busy loop and two more test files running); a bomb
+        # holding the server's GIL, or its core, takes whole seconds to near 0.
+        assert min(rates) >= 0.75 * min(baseline), (baseline, rates)
         assert answered >= 1
 
         # Saved again, and the server is stopped while its worker runs.
