@@ -197,7 +197,8 @@ async def test_nodes_in_degrees_radians_and_millimetres_arrive_in_their_joints_u
     }
     async with running(opcua_cache, machine) as mock:
         async with following(mock.url, list(node.values()), units=units) as run:
-            samples = data_samples(await run.samples_after(30))
+            # 3 s of the demo's cycle: 0.6 s once fell within its dwell at 0, where no unit shows.
+            samples = data_samples(await run.samples_after(150, 30.0))
         async with following(
             mock.url, [node["rad"]], units={node["rad"]: UnitRule("rad", False)}
         ) as kept:
