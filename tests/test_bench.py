@@ -34,6 +34,16 @@ each part of bench/hostile.py apart): not run twice."""
 RUNS = [p for p in BENCHMARKS if p.stem not in DEDICATED]
 
 
+def help_text(script: Path) -> str:
+    """What ``script --help`` prints (it must succeed: every import of the benchmark works)."""
+    done = subprocess.run(
+        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "--quick" in done.stdout  # the mode CI starts it in
+    return done.stdout
+
+
 def run_quick(script: Path, tmp_path: Path, *mode: str) -> str:
     """Run ``script`` (``--quick`` and ``mode``) in ``tmp_path``; its output, once it has
     succeeded, printed a table and left docs/benchmarks.md as it was."""
