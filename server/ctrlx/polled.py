@@ -52,6 +52,8 @@ async def poll(
             continue
         except DataLayerError as exc:
             await interruptions.failed(exc)
+            # The ticks of an interruption were the device's to miss, not ours: a new pace.
+            pacer, skipped = Pacer(period_s), 0
             continue
         if use_bulk and bulk is not None:
             bulk.worked()

@@ -212,6 +212,23 @@ async def test_injected_errors_are_ridden_out() -> None:
     assert mock.count("PUT", "/automation/api/v2/bulk", status=500) >= 1
 
 
+async def test_polls_missed_during_an_interruption_are_not_counted_as_merged_samples() -> None:
+    # A second of failing reads (the device's fault, not our lateness) is ridden out; the
+    # periods it lasted are not samples the server "fell behind on" (that reads as overloaded).
+    interruption_s = 1.0
+    async with running() as mock, client(mock.url) as c:
+        samples = follow(c, KIN12, PUBLISH_S, "poll")
+        async with asyncio.timeout(20):
+            await anext(samples)
+            mock.state.faults.error_rate = 1.0
+            await asyncio.sleep(interruption_s)
+            mock.state.faults.error_rate = 0.0
+            after = [await anext(samples) for _ in range(3)]
+        await samples.aclose()  # type: ignore[attr-defined]
+    missed = interruption_s / PUBLISH_S
+    assert max(s.received for s in after) < missed / 2, [s.received for s in after]
+
+
 async def test_every_request_has_a_timeout() -> None:
     async with running() as mock, client(mock.url, timeout_s=0.2) as c:
         mock.state.faults.latency_s = 1.0

@@ -115,10 +115,15 @@ async def test_json_payload_values_found_by_json_pointer(
         await follower.value(nodes[0], lambda v: v == 0.5)
         values = follower.samples[-1].values
         assert [values[n] for n in nodes] == [0.5, 3.5, 7.0]
-        # One message per cycle on the one topic: each sample stands for one cycle.
-        assert all(s.received == 1 for s in follower.samples[-5:])
     finally:
         task.cancel()
+        await asyncio.gather(task, return_exceptions=True)
+    # One message per cycle on the one topic: the samples stand for every message, each
+    # counted once (a late reader merges several; on a quiet machine each is one).
+    await wait_until(
+        lambda: sum(s.received for s in follower.samples) == follower.connector.messages
+    )
+    assert all(s.received >= 1 for s in follower.samples)
 
 
 async def test_a_retained_message_is_the_last_value_of_unknown_age_until_a_live_one(
