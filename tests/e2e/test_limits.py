@@ -12,6 +12,7 @@ and the server's RSS; the last test checks every attack window together.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import socket
 import statistics
@@ -22,7 +23,6 @@ import threading
 import time
 import urllib.request
 from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -35,10 +35,14 @@ from tests.web._browser import ROOT, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-WINDOW_SHARE = 0.75
+WINDOW_SHARE = 0.5
 """In each attack the viewer keeps at least this share of the rate it had in the second just
-before (the same run, the machine's load of that moment): a quarter lost is the noise a shared
-2-core machine makes, no more."""
+before (the same run, the machine's load of that moment), and no frame comes later than
+FREEZE_S after the one before. An attack that holds the server (its event loop, its GIL)
+stops the frames for whole seconds; the machine's other work took 40 % for a window at worst
+(29 of 49 frames/s, with a busy loop and two more test files running). bench/hostile.py
+measures the rates themselves."""
+FREEZE_S = 1.0
 MEDIAN_SHARE = 0.9
 """Over all the attacks, the median share: issue 20's mark (45 of 50 frames a second)."""
 QUIET_S = 2.0
@@ -67,6 +71,11 @@ class Viewer(threading.Thread):
             while not self.stop.is_set():
                 if isinstance(await ws.recv(), bytes):
                     self.arrivals.append(time.monotonic())
+
+    def longest_gap(self, start: float, end: float) -> float:
+        """The longest time between start, the frames messages that came, and end."""
+        times = [start, *(t for t in self.arrivals if start <= t <= end), end]
+        return max(b - a for a, b in zip(times, times[1:], strict=False))
 
     def fps(self, start: float, end: float) -> float:
         """Frames messages per second (each holds every robot) between two instants."""
@@ -121,6 +130,8 @@ class _Window:
         assert fps >= WINDOW_SHARE * self.before_fps, (
             f"reading viewer fell to {fps:.1f} frames/s from {self.before_fps:.1f} just before"
         )
+        gap = viewer.longest_gap(self.start, end)
+        assert gap < FREEZE_S, f"no frame for {gap:.2f} s during the attack"
 
 
 def _pid_with_arguments(part: bytes) -> int:
@@ -134,7 +145,7 @@ def _pid_with_arguments(part: bytes) -> int:
     raise AssertionError(f"no process with {part!r} in its command line")
 
 
-@contextmanager
+@contextlib.contextmanager
 def limits_server(log: Path, *args: str) -> Iterator[Server]:
     """The server these attacks hit (``python -m server ARGS``), a viewer reading it, and that
     viewer's quiet frame rate."""
@@ -241,12 +252,12 @@ def test_large_viewer_messages_close_that_viewer_with_1009(server: Server, size_
 
 def test_2000_idle_and_half_sent_connections_are_closed(server: Server) -> None:
     socks: list[socket.socket] = []
-    with server.attacked() as window:
+    with contextlib.ExitStack() as closing, server.attacked() as window:
         for i in range(2000):
             sock = socket.create_connection(("127.0.0.1", server.port))
             if i % 2:  # half of them start a request and never finish it
                 sock.sendall(b"GET /api/health HTTP/1.1\r\nHost: x\r\n")
-            socks.append(sock)
+            socks.append(closing.enter_context(sock))
         deadline = time.monotonic() + 15  # the server's deadline is 2 s
         open_ = list(socks)
         while open_ and time.monotonic() < deadline:
@@ -262,8 +273,6 @@ def test_2000_idle_and_half_sent_connections_are_closed(server: Server) -> None:
                 except ConnectionResetError:
                     pass
             open_ = still
-    for sock in socks:
-        sock.close()
     assert not open_, f"{len(open_)} connections still open after 15 s"
     assert window.rss_growth < 20
 
@@ -326,7 +335,7 @@ def test_a_ping_flood_that_never_reads_is_cut_off_and_its_memory_freed(server: S
     sock = _ws_handshake(server.port)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # and never reads one
     sent = 0
-    with server.attacked() as window:
+    with contextlib.closing(sock), server.attacked() as window:
         deadline = time.monotonic() + 12
         try:
             while time.monotonic() < deadline:
@@ -335,7 +344,6 @@ def test_a_ping_flood_that_never_reads_is_cut_off_and_its_memory_freed(server: S
         except (BrokenPipeError, ConnectionResetError):
             pass  # cut off: what it sent after that was refused
         peak = server.rss_mib() - window.rss_before
-    sock.close()
     assert time.monotonic() < deadline, f"still connected after {sent} pings"
     assert peak < 20, f"RSS grew by {peak:.0f} MiB during the flood"
     assert window.rss_growth < 20

@@ -60,12 +60,22 @@ async def test_a_dropped_session_is_named_in_health_and_streams_again_within_2_s
             await wait_until(lambda: health.robots.get("iiwa7") and health.robots["iiwa7"].ok)
             values = health.robots["iiwa7"].values
             assert values is not None and np.all(np.abs(values) <= 180.0)  # degrees, as read
+            # The error state lasts only until the new session's first sample (well under a
+            # second): each error is recorded as marked, with the status shown then, rather
+            # than looked for by polling.
+            shown: list[str | None] = []
+            mark_error = health.mark_error
+
+            def marked(error: str) -> bool:
+                changed = mark_error(error)
+                shown.append(health.status().error)  # what /api/health and the page show
+                return changed
+
+            health.mark_error = marked  # type: ignore[method-assign]
             await mock.drop_sessions()
             dropped = time.monotonic()
-            error = await error_of(health)
-            assert "BadSessionIdInvalid" in error
-            status = health.status()  # what /api/health and the page's status show
-            assert status.error is not None and "BadSessionIdInvalid" in status.error
+            await wait_until(lambda: bool(shown), 15.0)
+            assert "BadSessionIdInvalid" in str(shown[0]), shown
             frames = health.robots["iiwa7"].frames
             with contextlib.suppress(TimeoutError):  # a slow machine: the assert says how slow
                 await wait_until(

@@ -66,7 +66,12 @@ def test_both_views_draw_each_robot_in_the_same_place(browser: Browser, tmp_path
         # Level 4: the full meshes, no shadows (a shadow is no part of a silhouette).
         open_page(page, f"{url}/?quality=4", 3 * TIMEOUT_MS)
         assert page.evaluate("window.linkview.view")["view"] == "3d"
-        page.evaluate("document.getElementById('labels').style.visibility = 'hidden'")
+        # Labels, and the banner (a loaded machine's overload notice comes and goes), are
+        # no part of a silhouette.
+        page.evaluate(
+            "for (const id of ['labels', 'banner'])"
+            " document.getElementById(id).style.visibility = 'hidden'"
+        )
         page.get_by_role("checkbox", name="TCP trail", exact=True).uncheck()
         page.get_by_role("button", name="pause on this moment (space)").click()
         page.wait_for_function("() => window.linkview.timeline.mode === 'paused'")
