@@ -29,6 +29,7 @@ import aiomqtt
 from ..ctrlx import client_ssl
 from ..lateness import Mark, lateness
 from ..sources import Sample, SourceError, Throttle
+from . import sparkplug
 from .nodes import Node, PayloadError, mqtt_address, parse_node, parsed, value_in
 
 log = logging.getLogger(__name__)
@@ -125,10 +126,10 @@ class MqttConnector:
                 up = False
                 try:
                     async with await self._client() as client:
-                        for topic in state.topics:
+                        for topic in state.filters:
                             await client.subscribe(topic)
                         up = ever_up = True
-                        topics = len(state.topics)
+                        topics = len(state.filters)
                         log.info("%s: subscribed to %d topics", self.settings.url, topics)
                         async for message in client.messages:
                             state.received(message)
@@ -173,8 +174,21 @@ class _Topics:
         self, nodes: dict[str, Node], deliver: Callable[[Sample], None], owner: MqttConnector
     ) -> None:
         self.topics: dict[str, list[tuple[str, Node]]] = {}
+        """The nodes by topic (a Sparkplug device's by its key, spBv1.0/GROUP/EDGE/DEVICE)."""
+        metrics: dict[str, set[str]] = {}
         for key, node in nodes.items():
             self.topics.setdefault(node.topic, []).append((key, node))
+            if node.metric is not None:
+                metrics.setdefault(node.topic, set()).add(node.metric)
+        self.sparkplug = sparkplug.Devices(metrics)
+        self.filters = list(
+            dict.fromkeys(
+                f
+                for topic in self.topics
+                for f in (sparkplug.filters(topic) if topic in metrics else [topic])
+            )
+        )
+        """What to subscribe to: each topic, and each Sparkplug key's births, data and deaths."""
         self.values: dict[str, float | Exception] = {
             key: NoMessageYet(f"{node.topic}: no message since linkview subscribed")
             for key, node in nodes.items()
@@ -188,15 +202,17 @@ class _Topics:
 
     def received(self, message: aiomqtt.Message) -> None:
         topic = message.topic.value
-        on_topic = self.topics.get(topic)
-        if on_topic is None:
-            return
         payload = message.payload
         if not isinstance(payload, bytes | bytearray):
             payload = str(payload).encode()
-        self.owner.messages += 1
-        self.counts[topic] = self.counts.get(topic, 0) + 1
-        self.fresh = True
+        spb = sparkplug.topic_parts(topic)
+        if spb is not None and self.sparkplug.wanted:
+            self._sparkplug(*spb, payload, message.retain)
+            return
+        on_topic = self.topics.get(topic)
+        if on_topic is None:
+            return
+        self._count(topic)
         document: object = None
         try:
             if any(node.pointer is not None for _, node in on_topic):
@@ -209,8 +225,28 @@ class _Topics:
         except PayloadError as exc:
             for key, _ in on_topic:
                 self.values[key] = exc
+        self._retained(topic, message.retain)
+
+    def _sparkplug(self, kind: str, key: str, payload: bytes | bytearray, retain: bool) -> None:
+        """A Sparkplug B message: the values (or errors) it brings to the nodes of its keys
+        (a node's death reaches its devices' nodes)."""
+        for changed, metrics in self.sparkplug.received(kind, key, payload).items():
+            for node_key, node in self.topics[changed]:
+                if node.metric in metrics:
+                    self.values[node_key] = metrics[node.metric]
+            self.fresh = True
+        if key in self.topics:
+            self._count(key)
+            self._retained(key, retain)
+
+    def _count(self, topic: str) -> None:
+        self.owner.messages += 1
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+        self.fresh = True
+
+    def _retained(self, topic: str, retain: bool) -> None:
         before = len(self.retained)
-        if message.retain:
+        if retain:
             self.retained.add(topic)
         else:
             self.retained.discard(topic)
@@ -228,6 +264,6 @@ class _Topics:
             return
         self.fresh = False
         # The publisher's cycles this sample stands for: one, unless we fell behind.
-        received = max(self.counts.values())
+        received = max(self.counts.values(), default=1)
         self.counts.clear()
         self.deliver(Sample(time.time(), dict(self.values), received))

@@ -5,6 +5,10 @@ A joint's node is ``TOPIC`` (the payload is the number, as text) or
 RFC 6901, e.g. ``cell/ur5e/state#/joints/3``). ``#`` cannot be part of a
 topic one publishes to (it is the subscription wildcard), so the split is
 unambiguous, and ``#/...`` reads as RFC 6901's URI-fragment form.
+
+A Sparkplug B metric is ``spBv1.0/GROUP/EDGE[/DEVICE]#METRIC NAME``: the topic
+without its message type (births, data and deaths all count), and the metric's
+name as its birth certificate gives it (see sparkplug.py).
 """
 
 from __future__ import annotations
@@ -16,6 +20,8 @@ from urllib.parse import urlsplit
 
 import orjson
 
+from . import sparkplug
+
 PORTS = {"mqtt": 1883, "mqtts": 8883}
 
 
@@ -26,6 +32,8 @@ class Node:
     topic: str
     pointer: tuple[str, ...] | None = None
     """Reference tokens of the JSON pointer, unescaped (``~1`` -> ``/``, ``~0`` -> ``~``)."""
+    metric: str | None = None
+    """A Sparkplug B metric's name (``topic`` is then ``spBv1.0/GROUP/EDGE[/DEVICE]``)."""
 
 
 class PayloadError(ValueError):
@@ -42,12 +50,24 @@ def parse_node(text: str) -> Node:
         )
     if len(topic.encode()) > 65535:
         raise ValueError(f"{text[:40]!r}...: an MQTT topic has at most 65535 bytes")
+    if topic.startswith(sparkplug.NAMESPACE + "/"):
+        return _sparkplug_node(text, topic, pointer)
     if not hash_:
         return Node(topic)
     if pointer and not pointer.startswith("/"):
         raise ValueError(f"{text!r}: a JSON pointer starts with / (e.g. #/joints/3)")
     tokens = tuple(t.replace("~1", "/").replace("~0", "~") for t in pointer.split("/")[1:])
     return Node(topic, tokens)
+
+
+def _sparkplug_node(text: str, topic: str, metric: str) -> Node:
+    parts = topic.split("/")
+    if len(parts) not in (3, 4) or not all(parts) or parts[2] in sparkplug.TYPES or not metric:
+        raise ValueError(
+            f"{text!r}: a Sparkplug B metric is spBv1.0/GROUP/EDGE[/DEVICE]#METRIC NAME "
+            "(the topic without NBIRTH, DDATA, ...)"
+        )
+    return Node(topic, metric=metric)
 
 
 _USERINFO = re.compile(r"//[^/@]*@")

@@ -4,7 +4,9 @@ What an MQTT source without ``url`` follows: the embedded mock is a Mosquitto
 broker (``broker.Mosquitto``) and this publisher, moving the robots as the
 ctrlX mock does (``server.runtime.simulation.machine_for``). A ``topic`` node
 gets the number as text, ``topic#/pointer`` nodes of one topic share one JSON
-document with each value at its pointer.
+document with each value at its pointer. Sparkplug B metrics are published as an
+edge node does: a birth certificate with names and aliases on connecting, then
+data messages by alias.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import aiomqtt
 import orjson
 
 from ..mock_ctrlx import Machine
+from . import sparkplug
 from .nodes import Node, parse_node
 
 log = logging.getLogger(__name__)
@@ -51,7 +54,7 @@ def payloads(nodes: dict[str, Node], values: dict[str, float]) -> dict[str, byte
     plain: dict[str, bytes] = {}
     pointed: dict[str, list[tuple[tuple[str, ...], float]]] = {}
     for key, node in nodes.items():
-        if key not in values:
+        if key not in values or node.metric is not None:
             continue
         if node.pointer is None or not node.pointer:
             plain[node.topic] = repr(values[key]).encode()
@@ -59,6 +62,60 @@ def payloads(nodes: dict[str, Node], values: dict[str, float]) -> dict[str, byte
             pointed.setdefault(node.topic, []).append((node.pointer, values[key]))
     out = {topic: orjson.dumps(document(items)) for topic, items in pointed.items()}
     return {**out, **plain}
+
+
+class SparkplugEdge:
+    """The births and data messages of the Sparkplug keys among ``nodes``."""
+
+    def __init__(self, nodes: dict[str, Node]) -> None:
+        self.metrics: dict[str, dict[str, tuple[int, str]]] = {}
+        """By Sparkplug key: metric name -> (alias, node key)."""
+        for key, node in nodes.items():
+            if node.metric is not None:
+                metrics = self.metrics.setdefault(node.topic, {})
+                metrics.setdefault(node.metric, (len(metrics) + 1, key))
+        self.seq = 0
+
+    def births(self, values: dict[str, float], t_ms: int) -> dict[str, bytes]:
+        """NBIRTH of every edge node (bdSeq 0), then DBIRTH of every device, with names."""
+        edges = {"/".join(key.split("/")[:3]) for key in self.metrics}
+        self.seq = 0
+        out = {}
+        for edge in sorted(edges):
+            named = self._metrics(edge, values, names=True) + [("bdSeq", None, 0.0)]
+            out[_topic(edge, "NBIRTH")] = self._payload(named, t_ms)
+        for key in sorted(k for k in self.metrics if k not in edges):
+            out[_topic(key, "DBIRTH")] = self._payload(self._metrics(key, values, True), t_ms)
+        return out
+
+    def data(self, values: dict[str, float], t_ms: int) -> dict[str, bytes]:
+        """One NDATA or DDATA per key, its metrics by alias alone."""
+        return {
+            _topic(key, "NDATA" if key.count("/") == 2 else "DDATA"): self._payload(
+                self._metrics(key, values, names=False), t_ms
+            )
+            for key in self.metrics
+        }
+
+    def _metrics(
+        self, key: str, values: dict[str, float], names: bool
+    ) -> list[tuple[str | None, int | None, float]]:
+        return [
+            (name if names else None, alias, values[node_key])
+            for name, (alias, node_key) in self.metrics.get(key, {}).items()
+            if node_key in values
+        ]
+
+    def _payload(self, metrics: list[tuple[str | None, int | None, float]], t_ms: int) -> bytes:
+        payload = sparkplug.encoded(metrics, self.seq, t_ms)
+        self.seq = (self.seq + 1) % 256
+        return payload
+
+
+def _topic(key: str, kind: str) -> str:
+    """``spBv1.0/G/E[/D]`` with its message type: ``spBv1.0/G/KIND/E[/D]``."""
+    parts = key.split("/")
+    return "/".join([*parts[:2], kind, *parts[2:]])
 
 
 class MachinePublisher:
@@ -94,9 +151,15 @@ class MachinePublisher:
             try:
                 async with aiomqtt.Client(self.host, self.port) as client:
                     due = loop.time()
+                    edge = SparkplugEdge(self.nodes)
+                    t = self.machine.now()
+                    for topic, payload in edge.births(self.values(t), int(t * 1000)).items():
+                        await client.publish(topic, payload)
                     while True:
-                        now = self.values(self.machine.now())
-                        for topic, payload in payloads(self.nodes, now).items():
+                        t = self.machine.now()
+                        now = self.values(t)
+                        messages = {**payloads(self.nodes, now), **edge.data(now, int(t * 1000))}
+                        for topic, payload in messages.items():
                             await client.publish(topic, payload)
                         self.published += 1
                         due = max(due + self.period_s, loop.time())

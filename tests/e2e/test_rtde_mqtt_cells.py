@@ -180,3 +180,30 @@ async def test_a_malformed_payload_is_named_in_health_and_a_good_one_streams(
             np.testing.assert_allclose(si, np.radians([12.5, 90.0]))
     finally:
         await broker.close()
+
+
+async def test_sparkplug_metrics_of_the_embedded_mock_pose_a_robot(tmp_path: Path) -> None:
+    # No url: Mosquitto and a publisher acting as a Sparkplug B edge node (births, then
+    # data by alias), read back by the same connector that reads a plant's broker.
+    cell = tmp_path / "sparkplug.toml"
+    device = "spBv1.0/Plant/Cell1/Table"
+    cell.write_text(
+        f"""
+[[source]]
+name = "edge"
+type = "mqtt"
+
+[[robot]]
+name = "table"
+source = "edge"
+joints = [{{ node = "{device}#Axis 1/Position", unit = "deg" }},
+          {{ node = "{device}#Axis 2/Position", unit = "deg" }}]
+{TWO_AXES.format()}"""
+    )
+    async with running_server(Settings(cell=cell)) as base:
+        health = await wait_for_health(
+            base, lambda h: source(h, "edge")["robots"].get("table", {}).get("frames", 0) > 10
+        )
+        table = source(health, "edge")["robots"]["table"]
+        assert table["ok"] and table["error"] is None, table
+        assert source(health, "edge")["state"] == "connected"

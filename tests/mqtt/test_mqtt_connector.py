@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import ssl
 import subprocess
-from collections.abc import AsyncIterator, Callable
+from collections.abc import Callable
 from pathlib import Path
 
 import aiomqtt
@@ -17,61 +17,7 @@ from server.mqtt.nodes import parse_node
 from server.mqtt.publisher import document
 from server.sources import Sample, SourceError
 from tests.conftest import free_port, wait_until
-
-
-@pytest.fixture
-async def broker() -> AsyncIterator[Mosquitto]:
-    mosquitto = Mosquitto(port=free_port())
-    await mosquitto.start()
-    try:
-        yield mosquitto
-    finally:
-        await mosquitto.close()
-
-
-async def publish(broker: Mosquitto, topic: str, payload: bytes, retain: bool = False) -> None:
-    async with aiomqtt.Client(broker.host, broker.port) as client:
-        await client.publish(topic, payload, qos=1, retain=retain)
-
-
-class Follower:
-    """Follows nodes as the acquisition does: follow again after a SourceError."""
-
-    def __init__(self, connector: MqttConnector, nodes: list[str]) -> None:
-        self.connector = connector
-        self.samples: list[Sample] = []
-        self.errors: list[str] = []
-        self.task = asyncio.create_task(self._run(nodes))
-
-    async def _run(self, nodes: list[str]) -> None:
-        while True:
-            try:
-                await self.connector.follow(nodes, 0.02, self.samples.append)
-            except SourceError as exc:
-                self.errors.append(str(exc))
-            await asyncio.sleep(0.5)
-
-    async def value(self, node: str, accept: Callable[[object], bool]) -> object:
-        await wait_until(lambda: bool(self.samples) and accept(self.samples[-1].values[node]))
-        return self.samples[-1].values[node]
-
-    async def subscribed(self) -> None:
-        await wait_until(lambda: bool(self.samples) or self.connector.messages > 0 or False, 0.5)
-
-
-@pytest.fixture
-async def follow(broker: Mosquitto) -> AsyncIterator[Callable[..., Follower]]:
-    made: list[Follower] = []
-
-    def start(nodes: list[str], **settings: object) -> Follower:
-        connector = MqttConnector(MqttSettings(broker.url, **settings))  # type: ignore[arg-type]
-        made.append(Follower(connector, nodes))
-        return made[-1]
-
-    yield start
-    for follower in made:
-        follower.task.cancel()
-        await asyncio.gather(follower.task, return_exceptions=True)
+from tests.mqtt.helpers import Follower, publish
 
 
 async def keep_publishing(broker: Mosquitto, topic: str, payload: bytes) -> asyncio.Task[None]:
