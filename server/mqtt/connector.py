@@ -205,8 +205,7 @@ class _Topics:
         payload = message.payload
         if not isinstance(payload, bytes | bytearray):
             payload = str(payload).encode()
-        spb = sparkplug.topic_parts(topic)
-        if spb is not None and self.sparkplug.wanted:
+        if self.sparkplug.wanted and (spb := sparkplug.topic_parts(topic)) is not None:
             self._sparkplug(*spb, payload, message.retain)
             return
         on_topic = self.topics.get(topic)
