@@ -87,6 +87,9 @@ class SourceStatus(_Message):
     """A standing caveat that does not stop the stream, e.g. the device's clock is behind."""
     device: str | None = None
     """What the device says of itself, e.g. a robot's mode and safety mode (a protective stop)."""
+    halted: str | None = None
+    """While the device holds its robots still, why, in words ("protective stop"): each of its
+    robots' cards shows it."""
     last_sample_age_s: float | None
     overloaded: str | None = None
     """While this process makes fewer frames than the source sends: "overloaded: N of M

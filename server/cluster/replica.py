@@ -279,6 +279,7 @@ class Replica(Runtime):
         health.url, health.mock = status.url, status.mock
         health.warning = status.warning
         health.device = status.device
+        health.halted = status.halted
         health.overloaded = status.overloaded  # the worker's count, not ours
         health.robots = {name: robot.health() for name, robot in record.robots.items()}
         self.holders[source] = member_of(record.worker)

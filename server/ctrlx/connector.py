@@ -13,6 +13,7 @@ class CtrlxConnector:
     """Follows nodes of one data layer through ``client`` (see ``server.ctrlx.follow``)."""
 
     device: str | None = None
+    halted: str | None = None
 
     def __init__(
         self, client: DataLayerClient, mode: Mode = "subscribe", keepalive_s: float = 1.0

@@ -58,6 +58,7 @@ class MqttConnector:
     """Follows ``topic`` and ``topic#/pointer`` nodes on one broker."""
 
     device: str | None = None
+    halted: str | None = None
 
     def __init__(self, settings: MqttSettings) -> None:
         self.settings = settings

@@ -46,6 +46,7 @@ class OpcuaConnector:
         self.commands = dict(commands or {})
         """Command nodes standing for others (an embedded mock's methods for the defaults)."""
         self.device: str | None = None
+        self.halted: str | None = None
         self._session: Session | None = None
         self._notes: list[str] = []
         self._follower: Follower | None = None

@@ -12,6 +12,7 @@ class ReplayConnector:
     """Delivers what ``play()`` yields (see ``SourceReplay.play``); cannot be moved."""
 
     device: str | None = None
+    halted: str | None = None
 
     def __init__(
         self, play: Callable[[], AsyncGenerator[Sample, None]], warning: str | None = None

@@ -72,6 +72,7 @@ class RtdeConnector:
     def __init__(self, settings: RtdeSettings) -> None:
         self.settings = settings
         self.device: str | None = None
+        self.halted: str | None = None
         self.controller: Controller | None = None
         self._link: RtdeLink | None = None
         self._newest: bytes | None = None
@@ -266,6 +267,7 @@ class _Emitter:
             if modes != self.modes:  # the text changes rarely: made only then
                 self.modes = modes
                 self.connector.device = modes_text(self.controller, *modes)
+                self.connector.halted = wire.halt_text(int(modes[1]))
         self.deliver(Sample(t_source, values, received))
 
     def _pace(self, elapsed_s: float) -> None:

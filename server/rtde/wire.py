@@ -83,10 +83,19 @@ SAFETY_MODES = {
     12: "AUTOMATIC_MODE_SAFEGUARD_STOP",
     13: "SYSTEM_THREE_POSITION_ENABLING_STOP",
 }
+HALTING_SAFETY_MODES = {3, 5, 6, 7, 8, 9, 12, 13}
+"""Safety modes in which the controller holds the robot still (stops, violation, fault)."""
 RUNNING = 7
 NORMAL = 1
 SAFETY_REDUCED = 2
 PROTECTIVE_STOP = 3
+
+
+def halt_text(safety_mode: int) -> str | None:
+    """``protective stop`` for PROTECTIVE_STOP, and so on; None for a mode that lets it move."""
+    if safety_mode not in HALTING_SAFETY_MODES:
+        return None
+    return SAFETY_MODES[safety_mode].lower().replace("_", " ")
 
 
 class WireError(ValueError):

@@ -17,8 +17,8 @@ class Closable(Protocol):
 class Connector(Closable, Protocol):
     """A protocol client as the acquisition uses it: one per source.
 
-    ``warning`` and ``device`` are read whenever the source's status is
-    published (at least once a second), so a connector just keeps them current.
+    ``warning``, ``device`` and ``halted`` are read whenever the source's status
+    is published (at least once a second), so a connector just keeps them current.
     """
 
     @property
@@ -29,6 +29,11 @@ class Connector(Closable, Protocol):
     @property
     def device(self) -> str | None:
         """What the device says of itself (e.g. a robot or safety mode); None: nothing to say."""
+        ...
+
+    @property
+    def halted(self) -> str | None:
+        """Why the device holds its robots still (``protective stop``); None while it does not."""
         ...
 
     async def follow(

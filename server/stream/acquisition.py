@@ -215,6 +215,7 @@ class Acquisition:
         """Send this source's status to every viewer now."""
         self.health.warning = self.connector.warning
         self.health.device = self.connector.device
+        self.health.halted = self.connector.halted
         self._status_sent = time.monotonic()
         self._state_sent = self.health.current_state()
         self.tap.state(self._state_sent, self.health.status().error)

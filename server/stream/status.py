@@ -50,6 +50,8 @@ class SourceHealth:
     warning: str | None = None
     device: str | None = None
     """What the device says of itself (a robot or safety mode), as its connector reports it."""
+    halted: str | None = None
+    """Why the device holds its robots still (a protective stop), as its connector reports it."""
     last_sample: float | None = None
     """``time.monotonic()`` when the last sample arrived: the device's clock may differ."""
     robots: dict[str, RobotHealth] = field(default_factory=dict)
@@ -166,6 +168,7 @@ class SourceHealth:
             error=error,
             warning=self.warning,
             device=self.device,
+            halted=self.halted,
             last_sample_age_s=age,
             overloaded=self.overloaded,
         )

@@ -172,12 +172,15 @@ class Hud {
 			const state = element( 'div', 'robot-state', 'waiting for the first frame' );
 			const error = element( 'div', 'robot-error' );
 			error.hidden = true;
-			card.append( title, controls, tcp, many ? foldedJoints( robot, joints, rows ) : joints, state, error );
+			// Why its controller holds it still (a protective or emergency stop), while it does.
+			const halted = element( 'div', 'robot-halted' );
+			halted.hidden = true;
+			card.append( title, controls, tcp, many ? foldedJoints( robot, joints, rows ) : joints, state, halted, error );
 			if ( robot.warnings?.length ) card.append( warningList( robot.warnings ) );
 			this.robotsEl.append( card );
 			const before = old.get( robot.name );
 			this._cards.set( robot.name, {
-				card, swatch, show: show.input, trail: trail.input, fields, rows, state, error,
+				card, swatch, show: show.input, trail: trail.input, fields, rows, state, halted, error,
 				counted: view.framesReceived, since: undefined, time: - Infinity,
 				rate: before ? before.rate : 0, shown: null,
 			} );
@@ -346,6 +349,9 @@ class Hud {
 
 		}
 		card.card.classList.toggle( 'greyed', view.greyed || silent );
+		const halted = source?.halted ?? null;
+		card.halted.hidden = halted === null;
+		setText( card.halted, halted === null ? '' : `held by its controller: ${halted}` );
 		card.error.hidden = view.error === null;
 		setText( card.error, view.error ?? '' );
 
@@ -363,6 +369,7 @@ class Hud {
 			if ( source.state === 'error' ) return { text: `Controller ${source.name}: ${source.error || 'in error'}` };
 			if ( source.state === 'stale' ) return { text: `Controller ${source.name} sends no new data — showing the last good pose`, warn: true };
 			if ( source.state === 'connecting' ) return { text: `Connecting to controller ${source.name}…`, warn: true };
+			if ( source.halted ) return { text: `Controller ${source.name} holds its robots: ${source.halted}`, warn: true };
 
 		}
 		if ( robotProblem ) return { text: `${robotProblem} cannot be posed: see the error beside it`, warn: true };

@@ -114,7 +114,10 @@ async def test_a_ur_controller_through_the_server(tmp_path: Path, ur: RtdeMock) 
         await wait_for_health(base, lambda h: "PROTECTIVE" in (source(h, "ur")["device"] or ""))
         status = await status_on_the_page(base, "ur", "PROTECTIVE_STOP")
         assert status["device"].endswith("robot mode RUNNING, safety mode PROTECTIVE_STOP")
+        assert status["halted"] == "protective stop"
+        assert source(await health_of(base), "ur")["halted"] == "protective stop"
         ur.protective_stop(False)
+        await wait_for_health(base, lambda h: source(h, "ur")["halted"] is None)
 
         # Dropped: streaming again within 2 s of the controller taking connections again.
         before = source(await health_of(base), "ur")["robots"]["ur5e"]["frames"]

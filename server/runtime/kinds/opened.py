@@ -60,6 +60,10 @@ class MovedInSimulation:
     def device(self) -> str | None:
         return self.connector.device
 
+    @property
+    def halted(self) -> str | None:
+        return self.connector.halted
+
     async def follow(
         self, nodes: list[str], period_s: float, deliver: Callable[[Sample], None]
     ) -> None:
@@ -91,6 +95,7 @@ class Unusable:
 
     warning: str | None = None
     device: str | None = None
+    halted: str | None = None
 
     def __init__(self, why: str) -> None:
         self.why = why
