@@ -1,5 +1,4 @@
 import * as THREE from 'three';
-import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { Calibration } from './calibrate.js';
 import { CellEdits } from './cell_edits.js';
 import { DescriptionPicker } from './describe.js';
@@ -51,7 +50,7 @@ class Commissioning {
 
 		}
 		this.placeButton = this.edits.guard( button( 'Place', 'place the robot\'s base at these numbers', 'btn btn-primary' ) );
-		this.gizmoBox = checkbox( 'gizmo', false, 'move the robot\'s base with a gizmo in the 3D view' );
+		this.gizmoBox = checkbox( 'gizmo', false, 'move the robot\'s base with a gizmo in the view' );
 		this.edits.guard( this.gizmoBox.input );
 		this.gizmoMode = element( 'select' );
 		this.gizmoMode.setAttribute( 'aria-label', 'base gizmo mode' );
@@ -64,23 +63,13 @@ class Commissioning {
 		this.calibration = new Calibration( this.section, stage, this.edits );
 		this.describe = new DescriptionPicker( this.section, stage, this.edits );
 
-		this.gizmo = new TransformControls( stage.camera, stage.container );
-		this.gizmo.setSize( 0.9 );
-		this.gizmo.addEventListener( 'dragging-changed', ( event ) => {
-
-			stage.controls.enabled = ! event.value;
-			if ( ! event.value ) this._placeFromGroup();
-
-		} );
+		( { controls: this.gizmo, helper: this.gizmoHelper } = stage.gizmo( 0.9, () => this._placeFromGroup() ) );
 		this.gizmo.addEventListener( 'objectChange', () => {
 
 			this._typed.clear(); // the gizmo says where the robot is now
 			this._fieldsFrom( this.gizmo.object );
 
 		} );
-		this.gizmoHelper = this.gizmo.getHelper();
-		this.gizmoHelper.visible = false;
-		stage.scene.add( this.gizmoHelper );
 		this.placeButton.addEventListener( 'click', () => this.placeAtFields() );
 		this.gizmoBox.input.addEventListener( 'change', () => this._showGizmo() );
 		this.gizmoMode.addEventListener( 'change', () => this.gizmo.setMode( this.gizmoMode.value ) );
@@ -181,6 +170,7 @@ class Commissioning {
 			describe: this.describe.shown(),
 			controls: controls.map( ( el ) => ( { label: el.getAttribute( 'aria-label' ) ?? el.textContent, disabled: el.disabled, title: el.title } ) ),
 			gizmo: this.gizmoHelper.visible ? this.gizmo.object?.name ?? null : null,
+			gizmoAxis: this.gizmo.axis, // the handle under the pointer ('X', 'XY', ...), or null
 		};
 
 	}

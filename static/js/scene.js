@@ -1,5 +1,6 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { RoomEnvironment } from 'three/addons/environments/RoomEnvironment.js';
 import { FrameGate } from './frame_gate.js';
 import { OrientationAids } from './orientation.js';
@@ -51,7 +52,8 @@ class Stage {
 		this.settings = { ...settings };
 		this._loop = null;
 		this.insets = { left: 0, right: 0, bottom: 0 }; // px of the window covered by panels and the timeline bar
-		this.viewRect = { left: 0, width: 1, height: 1 }; // where the canvas lies: set by resize()
+		this.viewRect = { left: 0, width: 1, height: 1, bottom: 0 }; // where the canvas lies: set by resize()
+		this._gizmos = []; // TransformControls made by gizmo(), whose pointer resize() maps
 
 		this.scene = new THREE.Scene();
 		this.camera = new THREE.PerspectiveCamera( 40, 1, 0.01, 100 );
@@ -313,9 +315,9 @@ class Stage {
 		const full = this.container.clientWidth || window.innerWidth;
 		const tall = this.container.clientHeight || window.innerHeight;
 		const free = full - this.insets.left - this.insets.right;
-		if ( free < MIN_FREE_SHARE * full ) return { left: 0, width: full, height: tall };
+		if ( free < MIN_FREE_SHARE * full ) return { left: 0, width: full, height: tall, bottom: 0 };
 		const height = tall - this.insets.bottom < MIN_FREE_SHARE * tall ? tall : tall - this.insets.bottom;
-		return { left: this.insets.left, width: free, height };
+		return { left: this.insets.left, width: free, height, bottom: tall - height };
 
 	}
 
@@ -423,6 +425,34 @@ class Stage {
 		style.left = `${left}px`;
 		style.width = `${width}px`;
 		style.height = `${height}px`;
+		for ( const gizmo of this._gizmos ) gizmo.viewport.set( left, this.viewRect.bottom, width, height );
+
+	}
+
+	/**
+	 * A move/turn gizmo (three's TransformControls) in this view, its helper in the scene,
+	 * hidden: while it is dragged the camera holds still, and `released` runs when it is
+	 * let go. Its pointer is mapped to the canvas, not to the container the panels inset
+	 * it in (the container's whole rectangle put the handles away from where they are drawn).
+	 */
+	gizmo( size, released ) {
+
+		const controls = new TransformControls( this.camera, this.container );
+		controls.setSize( size );
+		controls.viewport = new THREE.Vector4();
+		controls.addEventListener( 'dragging-changed', ( event ) => {
+
+			this.controls.enabled = ! event.value;
+			if ( ! event.value ) released();
+
+		} );
+		const helper = controls.getHelper();
+		helper.visible = false;
+		this.scene.add( helper );
+		this._gizmos.push( controls );
+		const { left, width, height, bottom } = this.viewRect;
+		controls.viewport.set( left, bottom, width, height );
+		return { controls, helper };
 
 	}
 

@@ -1,5 +1,4 @@
 import * as THREE from 'three';
-import { TransformControls } from 'three/addons/controls/TransformControls.js';
 import { forward, inverse, move, reason } from './api.js';
 import { element, setText } from './dom.js';
 import { quaternionFromRpy, rpyFromQuaternion } from './rpy.js';
@@ -51,18 +50,8 @@ class SimPanel {
 		this._request = 0; // newer solves win over older answers
 
 		this.marker = this._makeMarker();
-		this.gizmo = new TransformControls( stage.camera, stage.container );
-		this.gizmo.setSize( 0.8 );
-		this.gizmo.addEventListener( 'dragging-changed', ( event ) => {
-
-			stage.controls.enabled = ! event.value;
-			if ( ! event.value ) this.solve();
-
-		} );
+		( { controls: this.gizmo, helper: this.gizmoHelper } = stage.gizmo( 0.8, () => this.solve() ) );
 		this.gizmo.addEventListener( 'objectChange', () => this._fieldsFromMarker() );
-		this.gizmoHelper = this.gizmo.getHelper();
-		this.gizmoHelper.visible = false;
-		stage.scene.add( this.gizmoHelper );
 
 		this.solveButton.addEventListener( 'click', () => this.solve() );
 		this.moveButton.addEventListener( 'click', () => this.moveToSelected() );

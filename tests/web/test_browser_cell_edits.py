@@ -14,11 +14,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 from playwright.sync_api import Browser, Page
 
 from tests.commissioning.cells import SOURCE, STILL, TODO_ARM, TODO_URDF_ARM, cell_file
 from tests.conftest import free_port
-from tests.web._browser import ROOT, Watched, open_page, post_json, server_process, watch
+from tests.web._browser import (
+    ROOT,
+    Watched,
+    on_screen,
+    open_page,
+    post_json,
+    server_process,
+    watch,
+)
 
 TIMEOUT_MS = 120_000  # the page renders in software on a shared machine
 FIXTURES = ROOT / "tests" / "urdf" / "fixtures"
@@ -98,9 +107,9 @@ def test_a_description_for_a_todo_robot_is_chosen_shown_as_a_diff_and_saved(
         (warning,) = robots(url)["arm"]["warnings"]
         assert "arm.urdf is not there: drawn as a placeholder chain" in warning
         # The base gizmo goes on the robot chosen (and off again).
-        page.get_by_label("move the robot's base with a gizmo in the 3D view").check()
+        page.get_by_label("move the robot's base with a gizmo in the view").check()
         assert page.evaluate("window.linkview.commission.gizmo") == "arm"
-        page.get_by_label("move the robot's base with a gizmo in the 3D view").uncheck()
+        page.get_by_label("move the robot's base with a gizmo in the view").uncheck()
         assert page.evaluate("window.linkview.commission.gizmo") is None
         page.get_by_label("list the robot descriptions on the server's machine").click()
         page.wait_for_function("() => window.linkview.commission.describe.found.length > 0")
@@ -171,3 +180,50 @@ def test_without_allow_edits_every_control_says_how_and_the_server_refuses(
         assert status[0] == 403 and "--allow-edits" in status[1]
         watched.assert_clean(expected="Failed to load resource")
     assert cell.read_text() == CELL
+
+
+def drag_gizmo_along_x(page: Page, base: list[float], pixels: float) -> None:
+    """Find the base gizmo's X arrow on screen (the handle the pointer is over) from the base
+    at ``base`` (m), and drag it ``pixels`` along world +X on screen, as a user does."""
+    base_at = np.array(base[:3])
+    (origin, ahead) = on_screen(page, [base_at, base_at + [0.05, 0.0, 0.0]])
+    direction = np.subtract(ahead, origin) / np.linalg.norm(np.subtract(ahead, origin))
+    for step in range(8, 200, 4):  # out along the arrow until the pointer is over it
+        at = np.add(origin, direction * step)
+        page.mouse.move(*at)
+        if page.evaluate("window.linkview.commission.gizmoAxis") == "X":
+            break
+    else:
+        raise AssertionError("the pointer never came over the gizmo's X arrow")
+    page.mouse.down()
+    for share in (0.25, 0.5, 0.75, 1.0):
+        page.mouse.move(*np.add(at, direction * pixels * share))
+    page.mouse.up()
+
+
+@pytest.mark.parametrize("view", ["3d", "2d"])
+def test_dragging_the_base_gizmo_places_the_robot(
+    view: str, browser: Browser, tmp_path: Path
+) -> None:
+    cell = cell_in(tmp_path)
+    log = tmp_path / "server.log"
+    with server_process(free_port(), log, "--cell", str(cell), "--allow-edits") as url:
+        watched = open_for(browser, url, "still")
+        page = watched.page
+        if view == "2d":
+            page.select_option("#view-kind", "2d")
+            page.wait_for_function("() => window.linkview.view.view === '2d'")
+        page.get_by_label("move the robot's base with a gizmo in the view").check()
+        before = robots(url)["still"]["base"]
+        drag_gizmo_along_x(page, before, 80)
+        # Let go: the server places the robot (a change, not yet saved) and says where.
+        page.wait_for_function(
+            "() => window.linkview.commission.edits.unsaved === 1", timeout=TIMEOUT_MS
+        )
+        after = robots(url)["still"]["base"]
+        assert after[0] > before[0] + 0.01, (before, after)  # along +X ...
+        np.testing.assert_allclose(after[1:], before[1:], atol=1e-9)  # ... and only along it
+        place = page.evaluate("window.linkview.commission.place")
+        assert float(place["x"]) == pytest.approx(after[0] * 1000, abs=1e-3)
+        assert cell.read_text() == CELL  # nothing written yet
+        watched.assert_clean()
