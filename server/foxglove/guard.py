@@ -8,7 +8,7 @@ its own (the ``websockets`` library) relaying messages both ways:
 
 * a client is admitted only as ``/ws`` admits a viewer (``access.Access``:
   its Host, its Origin, the viewer token) and while fewer than
-  ``--max-viewers`` are connected;
+  ``--max-viewers`` are connected, its clients and ``/ws``'s viewers together;
 * what it sends is paid from a ``flood.MessageBudget`` (pings and pongs
   included) and may be at most MAX_CLIENT_MESSAGE bytes; past either it is
   closed with 1008 (1009);
@@ -29,6 +29,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import Callable
 from urllib.parse import urlsplit
 
 from websockets.asyncio.client import ClientConnection, connect
@@ -110,11 +111,14 @@ class Guard:
         upstream_port: int,
         max_clients: int,
         scene: SceneBytes | None = None,
+        others: Callable[[], int] = lambda: 0,
     ) -> None:
         self.access = access
         self.scene = scene
         self.upstream_port = upstream_port
         self.max_clients = max_clients
+        self.others = others
+        """Viewers of the process's other doors (``/ws``): they share ``max_clients``."""
         self.refused = 0
         self.dropped = 0
         """Data messages not written to clients that did not read them."""
@@ -183,7 +187,7 @@ class Guard:
         given, _ = token_given(urlsplit(request.path).query, authorization, cookie)
         if not self.access.token_ok(given):
             return 401, "viewer token missing or wrong"
-        if self.clients >= self.max_clients:
+        if self.clients + self.others() >= self.max_clients:
             return 503, "too many viewers; try again later"
         return None
 

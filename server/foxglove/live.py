@@ -76,11 +76,14 @@ class FoxgloveEndpoint:
         port: int,
         access: Access | None = None,
         max_clients: int = 1000,
+        others: Callable[[], int] = lambda: 0,
     ) -> None:
         self.cell_of = cell_of
         self.host, self.port = host, port
         self.access = access or Access()
         self.max_clients = max_clients
+        self.others = others
+        """The process's other viewers (``/ws``), who share ``max_clients`` with Foxglove's."""
         self.reader = HistoryReader(history, from_start=False)
         self.listener = _Listener()
         self.context = foxglove.Context()
@@ -108,7 +111,7 @@ class FoxgloveEndpoint:
             server_listener=self.listener,
             message_backlog_size=BACKLOG,
         )
-        self.guard = Guard(self.access, self.server.port, self.max_clients, self.scene)
+        self.guard = Guard(self.access, self.server.port, self.max_clients, self.scene, self.others)
         self.port = await self.guard.start(self.host, self.port)
         log.info("foxglove: serving ws://%s:%d", self.host, self.port)
         return self.port

@@ -13,6 +13,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.datastructures import State
 
 from ..access import Access
 from ..cell import Cell
@@ -66,7 +67,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
         if path is not None:
             load = functools.partial(configured_cell, settings, path)
             watcher = asyncio.create_task(follow_cell_file(runtime, path, load, stop))
-        background = await _start_look_back(settings, runtime)
+        background = await _start_look_back(settings, runtime, app.state)
         app.state.loop_lag = LoopLag()
         loop_pacer().start()
         background.append(asyncio.create_task(app.state.loop_lag.run(), name="loop lag"))
@@ -90,6 +91,7 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
 
     app = FastAPI(title="linkview", lifespan=lifespan)
     app.state.max_viewers = settings.max_viewers
+    app.state.foxglove_clients = lambda: 0  # Foxglove's clients, once its endpoint serves
     app.state.coarse_meshes = CoarseMeshes()  # the 2D view's link meshes
     token = settings.viewer_token.get_secret_value() if settings.viewer_token else None
     hosts = HostPolicy(settings.host, settings.allow_host)
@@ -109,8 +111,14 @@ def create_app(settings: Settings, cell: Cell | None = None) -> FastAPI:
     return app
 
 
-async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio.Task[None]]:
-    """The continuous recording and the Foxglove endpoint, where the settings ask for them."""
+async def _start_look_back(
+    settings: Settings, runtime: Runtime, state: State
+) -> list[asyncio.Task[None]]:
+    """The continuous recording and the Foxglove endpoint, where the settings ask for them.
+
+    ``/ws``'s viewers and Foxglove's clients share ``--max-viewers``: each door counts the
+    other's (``state.foxglove_clients`` for ``/ws``).
+    """
     tasks = []
     if settings.record is not None:
         recorder = Recorder(runtime.history, lambda: runtime.cell, settings.record)
@@ -127,6 +135,7 @@ async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio
             settings.foxglove_port,
             access,
             settings.max_viewers,
+            others=lambda: runtime.hub.viewer_count,
         )
         try:
             await endpoint.start()
@@ -137,6 +146,7 @@ async def _start_look_back(settings: Settings, runtime: Runtime) -> list[asyncio
             await endpoint.stop()
         else:
             tasks.append(asyncio.create_task(endpoint.run(), name="foxglove"))
+            state.foxglove_clients = lambda: endpoint.guard.clients if endpoint.guard else 0
     return tasks
 
 

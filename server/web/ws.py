@@ -35,7 +35,8 @@ def negotiate(offered: list[str]) -> tuple[str | None, int]:
 async def viewer_socket(websocket: WebSocket) -> None:
     """Stream to one viewer; it only ever gets the newest frame per key."""
     runtime: Runtime = websocket.app.state.runtime
-    if runtime.hub.viewer_count >= websocket.app.state.max_viewers:
+    state = websocket.app.state
+    if runtime.hub.viewer_count + state.foxglove_clients() >= state.max_viewers:
         await websocket.send_denial_response(
             PlainTextResponse("too many viewers; try again later", status_code=503)
         )

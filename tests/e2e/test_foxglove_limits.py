@@ -196,6 +196,22 @@ async def test_no_more_clients_than_viewers_are_let_in() -> None:
             await advertised(again)
 
 
+async def test_foxglove_clients_and_page_viewers_share_the_viewer_cap() -> None:
+    port = free_port()
+    fox_url = f"ws://127.0.0.1:{port}/"
+    async with running_server(Settings(foxglove_port=port, max_viewers=2)) as base:
+        page_url = base.replace("http", "ws") + "/ws"
+        async with connect(page_url) as viewer, connect(fox_url, subprotocols=SUBPROTOCOLS) as fox:
+            await viewer.recv()  # hello: a viewer of the page
+            await advertised(fox)
+            # Two of two: a third is refused at either door.
+            assert await refused(fox_url) == (503, "too many viewers; try again later\n")
+            with pytest.raises(InvalidStatus) as page_refusal:
+                async with connect(page_url):
+                    pass
+            assert page_refusal.value.response.status_code == 503
+
+
 async def test_the_meshes_are_encoded_once_and_sent_to_each_subscriber_alone(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
