@@ -35,13 +35,13 @@ from tests.web._browser import ROOT, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-WINDOW_SHARE = 0.5
+WINDOW_SHARE = 0.35
 """In each attack the viewer keeps at least this share of the rate it had in the second just
 before (the same run, the machine's load of that moment), and no frame comes later than
 FREEZE_S after the one before. An attack that holds the server (its event loop, its GIL)
-stops the frames for whole seconds; the machine's other work took 40 % for a window at worst
-(29 of 49 frames/s, with a busy loop and two more test files running). bench/hostile.py
-measures the rates themselves."""
+stops the frames for whole seconds; the machine's other work took up to 54 % of a window
+(22.5 of 48.6 frames/s, with a busy loop and browser tests running beside). The median over
+all attacks (MEDIAN_SHARE) holds the rate itself; bench/hostile.py measures it."""
 FREEZE_S = 1.0
 MEDIAN_SHARE = 0.9
 """Over all the attacks, the median share: issue 20's mark (45 of 50 frames a second)."""
