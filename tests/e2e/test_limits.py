@@ -35,7 +35,7 @@ from tests.web._browser import ROOT, server_process
 
 TOKEN = "limits-test-token"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
-WINDOW_SHARE = 0.35
+WINDOW_SHARE = 1 / 3
 """In each attack the viewer keeps at least this share of the rate it had in the second just
 before (the same run, the machine's load of that moment), and no frame comes later than
 FREEZE_S after the one before. An attack that holds the server (its event loop, its GIL)
