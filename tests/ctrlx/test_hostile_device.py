@@ -247,8 +247,10 @@ def assert_spaced_logins(device: FakeDevice) -> None:
     assert min(gaps) >= 1.0 - LOGIN_SLACK_S, gaps
 
 
-LOGIN_SLACK_S = 0.05
-"""The device sees a login request a little after the client sent it (loopback, one loop)."""
+LOGIN_SLACK_S = 0.25
+"""The device sees a login request a little after the client sent it, and on a loaded machine
+one arrives later than the next (0.93 s apart once, with a busy loop beside): a storm is
+logins milliseconds apart."""
 
 
 async def test_tokens_that_expire_before_issue_are_rejected_without_a_login_storm(
