@@ -34,11 +34,10 @@ MAX_PAYLOAD = 4 * 1024 * 1024
 COMPRESSED = "SPBV1.0_COMPRESSED"
 TYPES = ("NBIRTH", "NDATA", "NDEATH", "DBIRTH", "DDATA", "DDEATH")
 
-# Sparkplug B datatypes whose values are numbers, by the bits of a signed integer (0: unsigned).
+# Sparkplug B datatypes: the signed integers (Int8..Int64) by their bits; Double; and the two
+# that are no numbers whatever field holds them.
 _SIGNED_BITS = {1: 8, 2: 16, 3: 32, 4: 64}
-_UNSIGNED = {5, 6, 7, 8}
-_FLOATS = {9, 10}
-BOOLEAN, STRING = 11, 12
+DOUBLE, BOOLEAN, STRING = 10, 11, 12
 _VALUE_FIELDS = ("int_value", "long_value", "float_value", "double_value", "boolean_value")
 
 
@@ -82,7 +81,6 @@ def _payload_class() -> Any:
 
 
 Payload = _payload_class()
-DOUBLE = 10
 
 
 class SparkplugError(ValueError):
@@ -103,10 +101,9 @@ def filters(key: str) -> list[str]:
 
     A device's key also follows its edge node: the node's death is the device's.
     """
-    parts = key.split("/")
-    group, edge = "/".join(parts[:2]), "/".join(parts[2:3])
-    node = f"{group}/+/{edge}"
-    return [node] if len(parts) == 3 else [node, f"{group}/+/{'/'.join(parts[2:])}"]
+    namespace, group, edge, *device = key.split("/")
+    node = f"{namespace}/{group}/+/{edge}"
+    return [node, *(f"{node}/{name}" for name in device)]
 
 
 def decode(data: bytes | bytearray) -> Any:
