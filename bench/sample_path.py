@@ -60,6 +60,7 @@ class _Connector:
 
     warning: str | None = None
     device: str | None = None
+    halted: str | None = None
 
 
 def publish_cycles(count: int) -> list[bytes]:

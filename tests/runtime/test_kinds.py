@@ -47,6 +47,7 @@ class ScriptedConnector:
     def __init__(self) -> None:
         self.warning: str | None = "scripted: not a real controller"
         self.device: str | None = "robot mode RUNNING"
+        self.halted: str | None = "protective stop"
         self.followed: list[str] = []
         self.moves: list[tuple[str, list[float]]] = []
         self.closed = False
@@ -155,6 +156,7 @@ async def test_a_new_kind_streams_poses_through_the_shared_path(
         runtime.sources["line1"].acquisition.publish_status()
         status = health.status()
         assert status.device == "robot mode RUNNING"
+        assert status.halted == "protective stop"
         assert status.warning == "scripted: not a real controller"
         kept = runtime.history.sources["line1"]
         assert len(kept.ring) == 1  # the timeline and recordings see the sample too
