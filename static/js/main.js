@@ -156,8 +156,8 @@ window.linkview = Object.freeze( {
 	/** The timeline: mode (live, paused, playing), the moment shown and the live edge (unix s). */
 	get timeline() {
 
-		const { mode, moment, liveT, speed, fetches } = app.timeline;
-		return { mode, moment, liveT, speed, fetches, span: app.timeline.span() };
+		const { mode, moment, liveT, speed, fetches, loading } = app.timeline;
+		return { mode, moment, liveT, speed, fetches, loading, span: app.timeline.span() };
 
 	},
 	get bannerChanges() {

@@ -168,6 +168,15 @@ class Timeline {
 
 	}
 
+	/** Windows of history still on their way (until one comes, its robots keep their pose). */
+	get loading() {
+
+		let pending = 0;
+		for ( const w of this.windows.values() ) if ( w.pending ) pending ++;
+		return pending;
+
+	}
+
 	/** Pause on the moment shown now (the live edge when live). */
 	pause() {
 

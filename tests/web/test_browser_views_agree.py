@@ -74,7 +74,13 @@ def test_both_views_draw_each_robot_in_the_same_place(browser: Browser, tmp_path
         )
         page.get_by_role("checkbox", name="TCP trail", exact=True).uncheck()
         page.get_by_role("button", name="pause on this moment (space)").click()
-        page.wait_for_function("() => window.linkview.timeline.mode === 'paused'")
+        # Paused, the robots are posed from the history window of that moment once it has
+        # come (before, the last live frame shows: 65 px apart once on a loaded machine).
+        page.wait_for_function(
+            "() => { const t = window.linkview.timeline;"
+            " return t.mode === 'paused' && t.fetches > 0 && t.loading === 0; }",
+            timeout=TIMEOUT_MS,
+        )
         camera_at_rest(page)
         settle(page)
         camera = page.evaluate("window.linkview.camera")
