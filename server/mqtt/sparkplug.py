@@ -41,6 +41,43 @@ DOUBLE, BOOLEAN, STRING = 10, 11, 12
 _VALUE_FIELDS = ("int_value", "long_value", "float_value", "double_value", "boolean_value")
 
 
+_T = descriptor_pb2.FieldDescriptorProto
+METRIC_FIELDS = (
+    ("name", 1, _T.TYPE_STRING),
+    ("alias", 2, _T.TYPE_UINT64),
+    ("timestamp", 3, _T.TYPE_UINT64),
+    ("datatype", 4, _T.TYPE_UINT32),
+    ("is_historical", 5, _T.TYPE_BOOL),
+    ("is_null", 7, _T.TYPE_BOOL),
+    ("int_value", 10, _T.TYPE_UINT32),  # 10 to 15: the oneof "value"
+    ("long_value", 11, _T.TYPE_UINT64),
+    ("float_value", 12, _T.TYPE_FLOAT),
+    ("double_value", 13, _T.TYPE_DOUBLE),
+    ("boolean_value", 14, _T.TYPE_BOOL),
+    ("string_value", 15, _T.TYPE_STRING),
+)
+PAYLOAD_FIELDS = (
+    ("timestamp", 1, _T.TYPE_UINT64),
+    ("metrics", 2, _T.TYPE_MESSAGE),  # repeated Metric
+    ("seq", 3, _T.TYPE_UINT64),
+    ("uuid", 4, _T.TYPE_STRING),
+    ("body", 5, _T.TYPE_BYTES),
+)
+VALUE_FROM = 10
+"""A Metric's fields from this number on are its oneof ``value``."""
+
+
+def _declare(message: Any, fields: tuple[tuple[str, int, int], ...]) -> None:
+    """Add ``(name, number, type)`` fields to ``message``: the one message field is the
+    repeated Metric; a Metric's fields from VALUE_FROM on are its oneof ``value``."""
+    for name, number, kind in fields:
+        field = message.field.add(name=name, number=number, type=kind, label=_T.LABEL_OPTIONAL)
+        if kind == _T.TYPE_MESSAGE:
+            field.label, field.type_name = _T.LABEL_REPEATED, ".linkview.sparkplug.Payload.Metric"
+        elif message.name == "Metric" and number >= VALUE_FROM:
+            field.oneof_index = 0
+
+
 def _payload_class() -> Any:
     """The Payload message (the fields linkview reads), built from its description."""
     file = descriptor_pb2.FileDescriptorProto(
@@ -49,32 +86,8 @@ def _payload_class() -> Any:
     payload = file.message_type.add(name="Payload")
     metric = payload.nested_type.add(name="Metric")
     metric.oneof_decl.add(name="value")
-    t = descriptor_pb2.FieldDescriptorProto
-    for name, number, kind in (
-        ("name", 1, t.TYPE_STRING),
-        ("alias", 2, t.TYPE_UINT64),
-        ("timestamp", 3, t.TYPE_UINT64),
-        ("datatype", 4, t.TYPE_UINT32),
-        ("is_historical", 5, t.TYPE_BOOL),
-        ("is_null", 7, t.TYPE_BOOL),
-        ("int_value", 10, t.TYPE_UINT32),
-        ("long_value", 11, t.TYPE_UINT64),
-        ("float_value", 12, t.TYPE_FLOAT),
-        ("double_value", 13, t.TYPE_DOUBLE),
-        ("boolean_value", 14, t.TYPE_BOOL),
-        ("string_value", 15, t.TYPE_STRING),
-    ):
-        oneof = {"oneof_index": 0} if number >= 10 else {}
-        metric.field.add(name=name, number=number, type=kind, label=t.LABEL_OPTIONAL, **oneof)
-    for name, number, kind, label in (
-        ("timestamp", 1, t.TYPE_UINT64, t.LABEL_OPTIONAL),
-        ("metrics", 2, t.TYPE_MESSAGE, t.LABEL_REPEATED),
-        ("seq", 3, t.TYPE_UINT64, t.LABEL_OPTIONAL),
-        ("uuid", 4, t.TYPE_STRING, t.LABEL_OPTIONAL),
-        ("body", 5, t.TYPE_BYTES, t.LABEL_OPTIONAL),
-    ):
-        type_name = ".linkview.sparkplug.Payload.Metric" if kind == t.TYPE_MESSAGE else None
-        payload.field.add(name=name, number=number, type=kind, label=label, type_name=type_name)
+    _declare(metric, METRIC_FIELDS)
+    _declare(payload, PAYLOAD_FIELDS)
     pool = descriptor_pool.DescriptorPool()
     pool.Add(file)
     return message_factory.GetMessageClass(pool.FindMessageTypeByName("linkview.sparkplug.Payload"))
@@ -213,7 +226,8 @@ class Devices:
         return out
 
     def _death(self, kind: str, key: str, payload: Any) -> dict[str, dict[str, Any]]:
-        if kind == "NDEATH" and self.bd_seq.get(key, _bd_seq(payload)) != _bd_seq(payload):
+        seq = _bd_seq(payload)
+        if kind == "NDEATH" and self.bd_seq.get(key, seq) != seq:
             return {}  # the will of an earlier session, published after the node was back
         gone = [
             k for k in self.wanted if k == key or (kind == "NDEATH" and k.startswith(key + "/"))
@@ -232,8 +246,9 @@ class Devices:
 def _bd_seq(payload: Any) -> int:
     """The birth-death sequence number an NBIRTH or NDEATH carries (-1: none)."""
     for metric in payload.metrics:
-        if metric.name == "bdSeq" and metric.WhichOneof("value") in ("int_value", "long_value"):
-            return int(getattr(metric, metric.WhichOneof("value")))
+        kind = metric.WhichOneof("value")
+        if metric.name == "bdSeq" and kind in ("int_value", "long_value"):
+            return int(getattr(metric, kind))
     return -1
 
 

@@ -15,13 +15,10 @@ from playwright.sync_api import Browser, Page
 from server.mock_ctrlx import Machine
 from server.mock_rtde import RtdeMock, demo_groups
 from tests.conftest import free_port
+from tests.e2e.test_rtde_mqtt_cells import UR5E_DH
 from tests.web._browser import open_page, server_process, watch
 
 TIMEOUT_MS = 30_000
-UR5E_DH = (
-    'kinematics = { type = "dh", d = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6], '
-    "a = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0], alpha_deg = [90.0, 0.0, 0.0, 90.0, -90.0, 0.0] }"
-)
 
 
 class MockThread:
