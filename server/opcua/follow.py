@@ -1,9 +1,10 @@
 """Following resolved nodes in one session: one subscription with every node, or reads.
 
 One subscription holds every node of the source (publishing interval = the
-period, queue size 1: the server keeps only the newest value of each). asyncua's
-publish loop hands us each PublishResponse whole (``on_publish``), and one
-response makes one Sample: no task, no call per item. An OPC UA server sends
+period, queue size 1: the server keeps only the newest value of each). Our
+publish loop (publish.py: requests in batches, the usual response decoded lean)
+hands us each PublishResponse whole (``on_publish``), and one response makes one
+Sample: no task, no call per item. An OPC UA server sends
 only what changed, so a robot at rest sends nothing; its last values are
 delivered again each period, with their time, for as long as the server shows
 it is alive (responses or keep-alives), and ``received`` counts the publishing
@@ -25,6 +26,7 @@ from asyncua.ua.uaerrors import UaStatusCodeError
 
 from ..ctrlx.pacing import Pacer
 from ..sources import Sample, SourceError
+from .publish import Change, Changes, Publisher, create_subscription
 from .resolve import Resolved
 from .session import Session, status_name
 
@@ -78,6 +80,7 @@ class Follower:
         self._holding = False
         """True while subscribed: a quiet period delivers the last values again."""
         self._alive_s = 1.0
+        self._publishing: asyncio.Task[None] | None = None
 
     async def run(self) -> None:
         """Follow until the session is lost; raises SourceError saying why."""
@@ -93,6 +96,8 @@ class Follower:
         finally:
             if self._timer is not None:
                 self._timer.cancel()
+            if self._publishing is not None:
+                self._publishing.cancel()
 
     # -- subscription --------------------------------------------------------------------------
 
@@ -107,7 +112,7 @@ class Follower:
             PublishingEnabled=True,
         )
         try:
-            created = await uaclient.create_subscription(params, self.on_publish)
+            created = await create_subscription(self.session.client, params)
             revised = created.RevisedPublishingInterval / 1000.0
             if revised > SLOWEST_PUBLISHING * self.period_s:
                 self.warning = (
@@ -128,7 +133,17 @@ class Follower:
         for handle, result in enumerate(results):
             if not result.StatusCode.is_good():
                 self._fail(handle, result.StatusCode.name)
+        self._publishing = asyncio.create_task(self._publish_loop())
         return True
+
+    async def _publish_loop(self) -> None:
+        try:
+            await Publisher(self.session.client, self.on_publish).run()
+        except (UaStatusCodeError, ConnectionError) as exc:
+            self.session.lose(exc)
+        except Exception as exc:  # never silently: the source says why it stopped
+            log.exception("source %s: publishing failed", self.session.settings.source)
+            self.session.mark_lost(f"internal error: {exc!r}")
 
     def _items(self, subscription: int) -> ua.CreateMonitoredItemsParameters:
         return ua.CreateMonitoredItemsParameters(
@@ -149,17 +164,20 @@ class Follower:
             ],
         )
 
-    def on_publish(self, result: ua.PublishResult) -> None:
-        """One PublishResponse (asyncua's publish loop): its changes made into one sample."""
+    def on_publish(self, result: ua.PublishResult | Changes) -> None:
+        """One PublishResponse (the Publisher's): its changes made into one sample."""
         try:
             self._publish(result)
-        except Exception as exc:  # asyncua would swallow it: end the session, say why
+        except Exception as exc:  # a fault of ours: end the session, say why
             log.exception("source %s: a publish response failed", self.session.settings.source)
             self.session.mark_lost(f"internal error: {exc!r}")
 
-    def _publish(self, result: ua.PublishResult) -> None:
+    def _publish(self, result: ua.PublishResult | Changes) -> None:
         now = self._loop.time()
         self._last_response = now
+        if type(result) is Changes:  # the usual response, decoded lean (publish.py)
+            self._changes(now, result.items)
+            return
         data = result.NotificationMessage.NotificationData
         if not data:
             return  # a keep-alive: the server lives; held values go on being delivered
@@ -174,7 +192,23 @@ class Follower:
                 status = notification.Status
                 self.session.mark_lost(f"the subscription ended: {status.name}")
                 return
-        self._t_source = stamp.timestamp() if stamp is not None else time.time()
+        self._sampled(now, stamp.timestamp() if stamp is not None else None)
+
+    def _changes(self, now: float, items: list[Change]) -> None:
+        """Good numbers that changed (publish.Changes): one sample, as ``_publish`` makes."""
+        if not items:
+            return  # a keep-alive
+        stamp = None
+        values, keys, gains, missing = self.values, self.keys, self.gains, self.missing
+        for handle, value, source_time in items:
+            values[keys[handle]] = value * gains[handle]
+            missing.discard(handle)
+            stamp = source_time or stamp
+        self._sampled(now, stamp)
+
+    def _sampled(self, now: float, t_source: float | None) -> None:
+        """A response's changes are stored: a sample, once every node has a value."""
+        self._t_source = t_source if t_source is not None else time.time()
         if not self.missing:
             self._send(now, 1)
 

@@ -98,6 +98,10 @@ class Session:
         client.connection_lost_callback = self._on_lost
 
     async def _on_lost(self, exc: Exception) -> None:
+        self.lose(exc)
+
+    def lose(self, exc: Exception) -> None:
+        """The session cannot go on because of ``exc`` (named as the user needs it)."""
         if isinstance(exc, TimeoutError):  # asyncua's keep-alive read went unanswered
             why = "the server stopped answering (its keep-alive read timed out)"
         elif isinstance(exc, ConnectionError) and not isinstance(exc, ConnectionRefusedError):
