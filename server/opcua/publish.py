@@ -1,14 +1,16 @@
 """The publish loop of a following session: requests sent in batches, responses decoded lean.
 
 asyncua's own loop keeps one PublishRequest at the server and sends the next
-after each response: a socket write per sample, and on loopback each write
-wakes the server's process (measured on this 2-core VM: 0.13 ms of CPU per
-write, 0.03 ms per request when five are corked into one). ``Publisher``
-keeps between ``LOW`` and ``LOW + BATCH`` requests at the server and tops them
-up ``BATCH`` at a time in one corked write, so the server always holds one for
-its next publishing cycle and we write once per ``BATCH`` samples. A server that
-allows fewer outstanding requests (BadTooManyPublishRequests) gets smaller
-batches, down to asyncua's one at a time.
+after each response, from a task that wakes for it: a socket write per sample,
+and on loopback each write wakes the server's process (measured on this 2-core
+VM: 0.13 ms of CPU per write, 0.03 ms per request when five are corked into
+one). ``Publisher`` keeps between ``LOW`` and ``LOW + BATCH`` requests at the
+server and tops them up in one corked write, so the server always holds one for
+its next publishing cycle and we write once per ``BATCH`` samples; each response
+is answered from its request's done-callback. A server that allows fewer
+outstanding requests (BadTooManyPublishRequests) gets smaller batches, down to
+asyncua's one at a time. With the decoding below, linkview's CPU per OPC UA
+robot-sample fell from 0.38 to 0.25 ms (bench/sources.py; ctrlX's: 0.14).
 
 Nearly every response says "these numbers changed": one DataChangeNotification
 whose items each hold a good scalar number and its source time. asyncua decodes
