@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import asyncio
 import json
+import string
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 from websockets.asyncio.client import connect
 
 from server.cell import load_cell
@@ -15,17 +17,18 @@ from server.config import Settings
 from server.mock_ctrlx import DEFAULT_LAG_S
 from tests.conftest import running_server
 
-CELL = """
+CELL = string.Template("""
 [[source]]
 name = "line"
+$source
 
 [[robot]]
 name = "ghosted"
 source = "line"
 kinematics = { type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }
 joints = [
-    { node = "plc/app/Application/sym/PLC_PRG/a0", setpoint = "plc/app/Application/sym/PLC_PRG/s0"},
-    { node = "plc/app/Application/sym/PLC_PRG/a1", setpoint = "plc/app/Application/sym/PLC_PRG/s1"},
+    { node = "$a0", setpoint = "$s0" },
+    { node = "$a1", setpoint = "$s1" },
 ]
 demo_targets = [[0.0, 0.0], [30.0, -25.0]]
 
@@ -34,15 +37,36 @@ name = "plain"
 source = "line"
 base = { xyz = [600.0, 0.0, 0.0] }
 kinematics = { type = "type12", limits = [[-40.0, 40.0], [-40.0, 40.0]] }
-joints = [ { node = "p/a0" }, { node = "p/a1" } ]
-"""
+joints = [ { node = "$p0" }, { node = "$p1" } ]
+""")
+PLC = "plc/app/Application/sym/PLC_PRG"
+OPCUA_LINE = "{urn:example:line}Line"
+"""Browse paths from the Objects folder, in a namespace of the cell's own (OPC UA's mock serves
+them where the cell says)."""
+KINDS = {
+    "ctrlx": {
+        "source": "",
+        **{f"a{i}": f"{PLC}/a{i}" for i in range(2)},
+        **{f"s{i}": f"{PLC}/s{i}" for i in range(2)},
+        **{f"p{i}": f"p/a{i}" for i in range(2)},
+    },
+    "opcua": {
+        "source": 'type = "opcua"',
+        **{f"a{i}": f"{OPCUA_LINE}/{{urn:example:line}}Actual{i}" for i in range(2)},
+        **{f"s{i}": f"{OPCUA_LINE}/{{urn:example:line}}Commanded{i}" for i in range(2)},
+        **{f"p{i}": f"nsu=urn:example:line;s=Plain.A{i}" for i in range(2)},
+    },
+}
 
 
+@pytest.mark.parametrize("kind", KINDS)
 async def test_an_embedded_mock_serves_setpoints_that_lead_the_actual_joints(
-    tmp_path: Path,
+    tmp_path: Path, kind: str, opcua_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """ctrlX by data layer paths; OPC UA by browse paths (the setpoints) and NodeIds."""
+    monkeypatch.setenv("LINKVIEW_CACHE_DIR", str(opcua_cache))  # OPC UA's nodesets, built once
     path = tmp_path / "cell.toml"
-    path.write_text(CELL)
+    path.write_text(CELL.substitute(KINDS[kind]))
     cell = load_cell(path, env={}, cache_dir=tmp_path)
     frames: dict[str, list[dict[str, Any]]] = {"ghosted": [], "plain": []}
     async with running_server(Settings(), cell) as base:
