@@ -204,8 +204,8 @@ class OpcuaMock:
             tokens.append(ua.UserNameIdentityToken)
         server.set_identity_tokens(tokens)
         server.iserver.user_manager = _Logins(self.options)
-        if not self.options.subscriptions:
-            _refuse_subscriptions(server)
+        if not self.options.subscriptions:  # asyncua's own limit: BadTooManySubscriptions
+            server.iserver.max_subscriptions = 0
         for k in range(self.boots):  # a restarted server numbers its namespaces anew
             await server.register_namespace(f"urn:linkview:mock-opcua:boot-{k + 1}")
         self._served = await build_robots(server, self.machine, self.options.system)
@@ -298,19 +298,3 @@ class OpcuaMock:
             # Only the SourceTimestamp: linkview asks for that alone (TimestampsToReturn), and a
             # server honours it; asyncua's would send every timestamp the value holds.
             await server.write_attribute_value(node, ua.DataValue(variant, SourceTimestamp=stamp))
-
-
-def _refuse_subscriptions(server: Server) -> None:
-    """Every session of ``server`` refuses CreateSubscription."""
-    iserver = server.iserver
-    make = iserver.create_session
-
-    async def refuse(*args: Any, **kwargs: Any) -> Any:
-        raise ServiceError(StatusCodes.BadTooManySubscriptions)
-
-    def create_session(name: str, *args: Any, **kwargs: Any) -> Any:
-        session = make(name, *args, **kwargs)
-        session.create_subscription = refuse  # type: ignore[method-assign]
-        return session
-
-    iserver.create_session = create_session  # type: ignore[method-assign]
