@@ -19,8 +19,11 @@ import { ViewChoice, askedView } from './view2d/choice.js';
 const PROTOCOL = 2; // server/protocol.py PROTOCOLS['linkview.2']
 // Every DOM readout (cards, plots, timeline, simulation) changes in one animation frame,
 // ten times a second; the frames between touch only the 3D view. Each DOM change is
-// painted and rasterised again, and without a GPU that raster competes with the 3D view.
+// painted and rasterised again, and without a GPU that raster competes with the view:
+// there, four times a second (in Chromium's default path, 45.9 -> 50.4 frames/s with the
+// demo cell; bench/page_fps.py).
 const READOUT_INTERVAL_MS = 100;
+const SOFTWARE_READOUT_INTERVAL_MS = 250;
 const FRAME_ANYWAY_MS = 3000; // aim the camera even if a robot never gets a pose
 const LATENCY_SMOOTHING = 0.1; // weight of the newest sample in the latency average
 
@@ -38,6 +41,7 @@ class App {
 		// levels it cannot carry (and climbs if it has headroom); the stage is built at it.
 		const webgl = probeWebGL();
 		this.quality = new Quality( ( settings ) => this.stage.setQuality( settings ), Math.min( window.devicePixelRatio, 2 ), webgl?.software ? LEVELS.length - 1 : 0 );
+		this.readoutMs = webgl === null || webgl.software ? SOFTWARE_READOUT_INTERVAL_MS : READOUT_INTERVAL_MS;
 		this.stage = new Stage( root.getElementById( 'viewport' ), this.quality.settings(), { webgl: webgl !== null, view: askedView() } );
 		this.viewChoice = new ViewChoice( root, this.stage ); // 3D or 2D, and the 2D view's badge
 		this.robots = new Robots( this.stage.world );
@@ -46,7 +50,7 @@ class App {
 			onTrail: ( name, on ) => this.views.get( name )?.setTrail( on ),
 			onFocus: ( name ) => this.focus( name ),
 		} );
-		this.labels = new Labels( root.getElementById( 'labels' ) );
+		this.labels = new Labels( this.stage.scene );
 		this.commission = new Commissioning( root, this.stage ); // docs/commissioning.md
 		this.mapping = new MappingTables( root, this.commission.mapping.decorate );
 		this.following = new Following( root, this.stage.world );
@@ -65,7 +69,7 @@ class App {
 		this.selected = null; // robot name shown in the plots and the simulation panel
 		this.trailSeconds = 5;
 		this._readoutAt = - Infinity;
-		this._dressed = false; // HUD and labels use the colours picked from the meshes
+		this._dressed = false; // the HUD uses the colours picked from the meshes
 		this._framed = false;
 		this._helloAt = null;
 		this._animate = ( time ) => this.animate( time );
@@ -94,6 +98,12 @@ class App {
 
 			for ( const view of this.views.values() ) view.setTrail( trailOn.checked );
 			for ( const input of this.root.querySelectorAll( '#robots input[aria-label^="draw the TCP trail"]' ) ) input.checked = trailOn.checked;
+
+		} );
+		const labelsOn = byId( 'labels-on' );
+		labelsOn.addEventListener( 'change', () => {
+
+			this.labels.shown = labelsOn.checked;
 
 		} );
 		const seconds = byId( 'trail-seconds' );
@@ -282,7 +292,6 @@ class App {
 
 			this._dressed = true;
 			this.hud.refreshColors( views );
-			this.labels.refreshColors( views );
 			if ( this.selected ) this.select( this.selected ); // plot colours
 
 		}
@@ -299,7 +308,7 @@ class App {
 			if ( this._framed ) view.updateAnchor();
 
 		}
-		if ( time - this._readoutAt >= READOUT_INTERVAL_MS ) {
+		if ( time - this._readoutAt >= this.readoutMs ) {
 
 			this._readoutAt = time;
 			this._updateStates();
@@ -313,8 +322,8 @@ class App {
 			this.plots.redraw();
 
 		}
-		this.quality.tick( time, this.stage.render() ); // frames that showed nothing new are not counted
 		this.labels.update( views, this.stage );
+		this.quality.tick( time, this.stage.render() ); // frames that showed nothing new are not counted
 
 	}
 

@@ -96,7 +96,12 @@ class FrameGate {
 			this._put( color.b );
 
 		}
-		if ( material.map ) this._put( material.map.id );
+		if ( material.map ) {
+
+			this._put( material.map.id );
+			this._put( material.map.version ); // a canvas redrawn (a label's text)
+
+		}
 
 	}
 

@@ -52,6 +52,12 @@ window.linkview = Object.freeze( {
 		return app.robots.linkMatrices( name );
 
 	},
+	/** The robots' name tags in the view: [{ robot, text, note, shown, x, y }] (x, y: the tag's foot, container px). */
+	get labels() {
+
+		return app.labels.described( app.stage );
+
+	},
 	/** What a robot's card shows: { joints (SI, the frame shown), tcp: { x, y, z, roll, pitch, yaw } as text }. */
 	readout( name ) {
 
@@ -86,7 +92,7 @@ window.linkview = Object.freeze( {
 	},
 	get quality() {
 
-		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings } };
+		return { mode: app.quality.mode, level: app.quality.level, fps: app.quality.fps, changes: app.quality.changes, settings: { ...app.stage.settings }, readoutMs: app.readoutMs };
 
 	},
 	/** A robot's Mapping table: per joint { joint, node, setpoint, unit, scale, offset, raw, value } (text as shown). */

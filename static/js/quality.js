@@ -13,7 +13,9 @@ const LEVELS = [
 	{ name: 'simple meshes', shadows: false, antialias: false, pixelRatio: 1, environment: false, simpleMaterials: true },
 ];
 
-const TARGET_FPS = 30; // below this, step down
+// Below this, step down: the page falls behind a 50 Hz stream (a frame drawn every other
+// pose at 30). Without a GPU the lowest level then keeps up where the levels above do not.
+const TARGET_FPS = 45;
 const HEADROOM_FPS = 50; // at or above this, a better level may fit
 const WINDOW_MS = 2000; // frame rate measured over this
 const SETTLE_MS = 1000; // after a change, frames are not counted for this long (shader compiles)
@@ -25,7 +27,7 @@ const RETRY_MS = 30000; // a level that proved too slow is not retried before th
  * the level follows how often the page gets an animation frame at all (`rate`, drawn
  * or not: a frame with nothing new to draw is skipped, and the page that keeps up has
  * them to spare). In 'auto' it steps down
- * one level whenever a 2 s window averages below 30 frames/s (two below 15), and up one level
+ * one level whenever a 2 s window averages below 45 frames/s (two below 22.5), and up one level
  * after 8 s at 50 frames/s or more, but not back into a level that was too slow
  * until a back-off (30 s, doubling each time it fails again) has passed, so it
  * does not oscillate. A pinned level stays whatever the frame rate.
@@ -48,6 +50,9 @@ class Quality {
 		this._goodSince = null;
 		this._retryAfter = new Map(); // level -> [time it may be tried again, back-off ms]
 		this.changes = 0;
+		// Started low (software rendering): a better level is not tried in the first 30 s,
+		// which it would rarely carry, and whose try the user would see as a stutter.
+		if ( this.level > 0 ) this._retryAfter.set( this.level - 1, [ RETRY_MS, RETRY_MS ] );
 
 	}
 

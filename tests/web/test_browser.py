@@ -315,10 +315,17 @@ def test_view_presets_focus_and_home(viewer: Watched) -> None:
     x, y, z = _view_direction(page)
     assert x > 0.3 and y < -0.5 and z > 0.3, (x, y, z)  # back to the iso view of everything
     # Labels follow the camera on the next rendered frame: wait for it, then check them all.
-    shown = "[...document.querySelectorAll('.label')].map(l => !l.hidden)"
+    shown = "window.linkview.labels.map(l => l.shown)"
     page.wait_for_function(f"() => {shown}.every(Boolean)", timeout=TIMEOUT_MS)
     labels = page.evaluate(shown)
     assert labels == [True, True, True]  # every robot is on screen
+    # Each tag (drawn in the view) names its robot, and its foot lies in the view.
+    box = page.locator("#viewport canvas").bounding_box()
+    assert box is not None
+    for label in page.evaluate("window.linkview.labels"):
+        assert label["text"] == label["robot"] and label["note"] is None, label
+        assert box["x"] <= label["x"] <= box["x"] + box["width"], (label, box)
+        assert 0 <= label["y"] <= box["height"], (label, box)
 
 
 def test_world_axes_and_grid_spacing_are_labelled(viewer: Watched) -> None:

@@ -110,7 +110,8 @@ def test_robots_without_meshes_and_a_reloaded_cell(browser: Browser, tmp_path: P
         page.wait_for_timeout(300)
         assert page.evaluate("window.linkview.linkMatrices('free')") == posed  # held
         assert "unreachable" in page.inner_text("article.robot[data-robot='free'] .robot-error")
-        assert "unreachable" in page.inner_text(".label[data-robot='free'] .note")
+        tags = {tag["robot"]: tag for tag in page.evaluate("window.linkview.labels")}
+        assert "unreachable" in tags["free"]["note"]  # under its name in the view
         # The mock holds a commanded pose (30 s); the next command ends the hold.
         status, _ = post_json(f"{url}/api/robots/free/move", {"joints": [0.0, 0.0]})
         assert status == 202

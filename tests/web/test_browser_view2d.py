@@ -36,15 +36,16 @@ def open_2d(browser: Browser, url: str) -> Watched:
     page = browser.new_page(viewport={"width": 1280, "height": 800})
     watched = watch(page)
     open_page(page, url, TIMEOUT_MS)
-    drawn = page.evaluate("window.linkview.framesDrawn")
     page.wait_for_function(
-        "(d) => { const v = window.linkview.view; return v.view === '2d' && v.pending === 0"
-        " && window.linkview.framesDrawn > d + 2 && window.linkview.renderInfo.triangles > 500; }",
-        arg=drawn,
+        "() => { const v = window.linkview.view; return v.view === '2d' && v.pending === 0"
+        " && window.linkview.renderInfo.triangles > 500; }",
         timeout=TIMEOUT_MS,
     )
-    # The robots' name tags are HTML over the view: out of the pictures compared here.
-    page.evaluate("document.getElementById('labels').style.visibility = 'hidden'")
+    # The robots' name tags: out of the pictures compared here.
+    page.get_by_role("checkbox", name="robot names in the view").uncheck()
+    # A scene at rest is drawn once more only where something changed (frame_gate.js): the
+    # last coarse mesh and the tags' going, in the next animation frames.
+    settle(page)
     return watched
 
 

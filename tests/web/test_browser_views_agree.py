@@ -68,10 +68,8 @@ def test_both_views_draw_each_robot_in_the_same_place(browser: Browser, tmp_path
         assert page.evaluate("window.linkview.view")["view"] == "3d"
         # Labels, and the banner (a loaded machine's overload notice comes and goes), are
         # no part of a silhouette.
-        page.evaluate(
-            "for (const id of ['labels', 'banner'])"
-            " document.getElementById(id).style.visibility = 'hidden'"
-        )
+        page.evaluate("document.getElementById('banner').style.visibility = 'hidden'")
+        page.get_by_role("checkbox", name="robot names in the view").uncheck()
         page.get_by_role("checkbox", name="TCP trail", exact=True).uncheck()
         page.get_by_role("button", name="pause on this moment (space)").click()
         # Paused, the robots are posed from the history window of that moment once it has

@@ -73,9 +73,9 @@ QUALITY_SCRIPT = """
 import { LEVELS, Quality } from %s;
 let input = '';
 for await (const chunk of process.stdin) input += chunk;
-const { phases, pin } = JSON.parse(input);
+const { phases, pin, start } = JSON.parse(input);
 const applied = [];
-const quality = new Quality((settings) => applied.push(settings), 2);
+const quality = new Quality((settings) => applied.push(settings), 2, start);
 if (pin !== null) quality.setMode(pin);
 // Each phase: [seconds, frames per second] (or a list: the rate at each level).
 let t = 0;
@@ -93,15 +93,18 @@ process.stdout.write(JSON.stringify({ levels, applied, count: LEVELS.length,
 """
 
 
-def governor(phases: list[tuple[float, float]], pin: int | None = None) -> dict[str, Any]:
+def governor(
+    phases: list[tuple[float, Any]], pin: int | None = None, start: int = 0
+) -> dict[str, Any]:
     script = QUALITY_SCRIPT % json.dumps((JS / "quality.js").as_uri())
-    result: dict[str, Any] = run_node(script, {"phases": phases, "pin": pin})
+    result: dict[str, Any] = run_node(script, {"phases": phases, "pin": pin, "start": start})
     return result
 
 
 def test_quality_steps_down_when_slow_and_up_with_headroom_without_oscillating() -> None:
-    # 25 frames/s at every level: one step per 3 s (2 s window + 1 s settling).
-    slow = governor([(3.5, 25), (3.1, 25), (60, 25)])
+    # 40 frames/s at every level (short of a 50 Hz stream): one step per 3 s (2 s window +
+    # 1 s settling).
+    slow = governor([(3.5, 40), (3.1, 40), (60, 40)])
     assert slow["levels"][:2] == [1, 2]
     assert slow["levels"][-1] == slow["count"] - 1  # all the way down, and it stays
     assert slow["applied"][0] == {
@@ -111,17 +114,25 @@ def test_quality_steps_down_when_slow_and_up_with_headroom_without_oscillating()
         "simpleMaterials": False,
         "pixelRatio": 2,
     }
-    # Far too slow skips a level.
-    assert governor([(3.5, 8)])["levels"] == [2]
+    # Far too slow (under half of 45) skips a level.
+    assert governor([(3.5, 20)])["levels"] == [2]
     # Slow at full quality, then plenty of headroom: back up, but not into the level that
     # proved too slow until its back-off has passed.
-    back = governor([(3.5, 20), (20, 60), (40, 60)])
+    back = governor([(3.5, 30), (20, 60), (40, 60)])
     assert back["levels"] == [1, 1, 0]
-    # Full quality runs at 20 frames/s, the next level at 60: it tries full quality again
+    # Full quality runs at 30 frames/s, the next level at 60: it tries full quality again
     # ever more rarely (back-off 30 s, 60 s, 120 s, ...), instead of flipping every few seconds.
-    flapping = governor([(300, [20, 60, 60, 60, 60, 60])])
+    flapping = governor([(300, [30, 60, 60, 60, 60, 60])])
     assert flapping["levels"] == [1]
     assert 3 <= flapping["changes"] <= 9, flapping
+
+
+def test_a_software_start_at_the_lowest_level_tries_a_better_one_only_after_30_s() -> None:
+    # Headroom from the start (60 frames/s at the lowest level, 40 at the one above).
+    rates = [60, 60, 60, 60, 40, 60]
+    assert governor([(29, rates)], start=5)["changes"] == 0  # no try for 30 s
+    later = governor([(49, rates)], start=5)
+    assert later["levels"] == [5] and later["changes"] == 2  # tried after it, too slow, back
 
 
 def test_a_pinned_level_stays_whatever_the_frame_rate() -> None:

@@ -150,6 +150,12 @@ class CanvasRenderer {
 
 	}
 
+	getPixelRatio() {
+
+		return this._pixelRatio;
+
+	}
+
 	/** The drawing's size in CSS px (the stage places and sizes the canvas element). */
 	setSize( width, height ) {
 
