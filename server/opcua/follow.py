@@ -175,7 +175,7 @@ class Follower:
     def _publish(self, result: ua.PublishResult | Changes) -> None:
         now = self._loop.time()
         self._last_response = now
-        if type(result) is Changes:  # the usual response, decoded lean (publish.py)
+        if isinstance(result, Changes):  # the usual response, decoded lean (publish.py)
             self._changes(now, result.items)
             return
         data = result.NotificationMessage.NotificationData

@@ -34,6 +34,8 @@ from typing import Any
 
 from asyncua import ua
 from asyncua.client.client import Client
+from asyncua.client.ua_client import UASocketProtocol
+from asyncua.ua.object_ids import ObjectIds
 from asyncua.ua.ua_binary import struct_from_binary
 from asyncua.ua.uaerrors import BadNoSubscription, BadTimeout, BadTooManyPublishRequests
 
@@ -44,8 +46,8 @@ BATCH = 8
 LOW = 2
 """Requests still at the server when the next batch is written: it never waits for one."""
 
-_PUBLISH_RESPONSE = struct.pack("<BBH", 1, 0, ua.ObjectIds.PublishResponse_Encoding_DefaultBinary)
-_DATA_CHANGE = struct.pack("<BBH", 1, 0, ua.ObjectIds.DataChangeNotification_Encoding_DefaultBinary)
+_PUBLISH_RESPONSE = struct.pack("<BBH", 1, 0, ObjectIds.PublishResponse_Encoding_DefaultBinary)
+_DATA_CHANGE = struct.pack("<BBH", 1, 0, ObjectIds.DataChangeNotification_Encoding_DefaultBinary)
 _HEADER = struct.Struct("<4sqIIBi")
 """Type id, then the ResponseHeader up to its StringTable's length."""
 _NULL_ADDITIONAL_HEADER = b"\x00\x00\x00"
@@ -170,7 +172,10 @@ class Publisher:
     """
 
     def __init__(self, client: Client, on_publish: Callable[[Published], None]) -> None:
-        self.protocol = client.uaclient.protocol
+        protocol = client.uaclient.protocol
+        if protocol is None:
+            raise ConnectionError("the connection closed before publishing began")
+        self.protocol: UASocketProtocol = protocol
         self.on_publish = on_publish
         self.batch, self.low = BATCH, LOW
         self._pending: deque[asyncio.Future[Any]] = deque()
@@ -184,6 +189,7 @@ class Publisher:
             self._top_up()
             await self._ended
         finally:
+            self._ended.cancel()  # done: the requests' callbacks below leave it alone
             for future in self._pending:
                 future.cancel()
 
@@ -217,19 +223,20 @@ class Publisher:
                 self._ended.set_exception(exc)
 
     def _answer(self, data: Any) -> None:
-        result = decode(bytes(data))
+        result: Published | None = decode(bytes(data))
         if result is None:
             result = self._asyncua_answer(data)
             if result is None:
                 return
-        if type(result) is Changes:
+        if isinstance(result, Changes):
             subscription, sequence, changed = result.subscription, result.sequence, result.items
         else:
             message = result.NotificationMessage
             subscription, sequence = result.SubscriptionId, message.SequenceNumber
             changed = message.NotificationData
         if not subscription:
-            raise BadNoSubscription()  # the server holds no subscription of ours any more
+            # the server holds no subscription of ours any more
+            raise BadNoSubscription()  # type: ignore[no-untyped-call]
         if changed:  # a keep-alive has nothing to acknowledge
             self._acks.append(ua.SubscriptionAcknowledgement(subscription, sequence))
         self.on_publish(result)
@@ -246,10 +253,12 @@ class Publisher:
                 log.info("the server keeps fewer publish requests: %d at a time", self.batch)
             return None
         try:
-            return struct_from_binary(ua.PublishResponse, data).Parameters
+            response: ua.PublishResponse = struct_from_binary(ua.PublishResponse, data)
         except Exception:  # as asyncua's loop: a response it cannot read is skipped
             log.exception("a publish response could not be decoded")
             return None
+        result: ua.PublishResult = response.Parameters
+        return result
 
 
 async def create_subscription(
@@ -259,9 +268,12 @@ async def create_subscription(
     request = ua.CreateSubscriptionRequest()
     request.Parameters = params
     data = await client.uaclient.session._send_request(request)
-    response = struct_from_binary(ua.CreateSubscriptionResponse, data)
+    response: ua.CreateSubscriptionResponse = struct_from_binary(
+        ua.CreateSubscriptionResponse, data
+    )
     response.ResponseHeader.ServiceResult.check()
-    return response.Parameters
+    created: ua.CreateSubscriptionResult = response.Parameters
+    return created
 
 
 @contextlib.contextmanager
