@@ -37,9 +37,11 @@ from cluster import ARM_JOINTS  # noqa: E402
 from sources import CACHE, OPCUA_NODES, start, wait_port  # noqa: E402
 from viewers import free_port  # noqa: E402
 
+from server.opcua.publish import BATCH  # noqa: E402
+
 PARTS = {
     "decode": "decoding the PublishResponse (server/opcua/publish.py, asyncua's where unusual)",
-    "request": "sending PublishRequests (8 per corked socket write, every 8th sample)",
+    "request": f"sending PublishRequests ({BATCH} per corked socket write, every {BATCH}th sample)",
     "receive": "reading the response off the socket (asyncua)",
     "handler": "linkview's handler: one Sample per response",
 }

@@ -1,4 +1,5 @@
 import * as THREE from 'three';
+import { canvasSprite } from './canvas_sprite.js';
 
 // Drawn in the view, not as HTML over it: in Chromium's default path without a GPU
 // (SwiftShader in the GPU process), three small tags over the canvas cost the page
@@ -59,16 +60,9 @@ class Tag {
 		this.note = null;
 		this.color = null;
 		this.dark = false;
-		this.canvas = document.createElement( 'canvas' );
-		// On the CPU: the 2D view draws this canvas into its own every frame, and reading an
-		// accelerated one back from SwiftShader's GPU process is slow (see orientation.js).
-		this.ctx = this.canvas.getContext( '2d', { willReadFrequently: true } );
-		this.texture = new THREE.CanvasTexture( this.canvas );
-		this.texture.colorSpace = THREE.SRGBColorSpace;
-		this.texture.minFilter = THREE.LinearFilter;
+		Object.assign( this, canvasSprite() ); // canvas, ctx, texture, sprite
+		this.texture.minFilter = THREE.LinearFilter; // drawn at its size on screen: no mipmaps
 		this.texture.generateMipmaps = false;
-		const material = new THREE.SpriteMaterial( { map: this.texture, sizeAttenuation: false, depthTest: false, depthWrite: false, toneMapped: false } );
-		this.sprite = new THREE.Sprite( material );
 		this.sprite.center.set( 0.5, 0 ); // its foot at the anchor
 		this.sprite.renderOrder = 13; // over the robots and the world axes' letters
 		this.sprite.name = `${name} label`;
@@ -79,13 +73,14 @@ class Tag {
 
 	}
 
-	/** Draw the tag for `note` and `color` at `scale` device px per CSS px, if anything changed. */
+	/** Draw the tag for `note` and `color` (a THREE.Color) at `scale` device px per CSS px, if anything changed. */
 	draw( note, color, scale ) {
 
 		const dark = DARK.matches;
-		if ( note === this.note && color === this.color && scale === this.scale && dark === this.dark ) return;
+		const hex = color.getHex();
+		if ( note === this.note && hex === this.color && scale === this.scale && dark === this.dark ) return;
 		this.note = note;
-		this.color = color;
+		this.color = hex;
 		this.scale = scale;
 		this.dark = dark;
 		const ctx = this.ctx;
@@ -106,7 +101,7 @@ class Tag {
 		ctx.beginPath();
 		ctx.roundRect( 0, 0, this.widthPx, this.heightPx, 6 );
 		ctx.fill();
-		ctx.fillStyle = color;
+		ctx.fillStyle = `#${color.getHexString()}`;
 		ctx.fillRect( 0, 0, EDGE_PX, this.heightPx );
 		ctx.textBaseline = 'top';
 		ctx.font = nameFont;
@@ -171,7 +166,7 @@ class Labels {
 			const sprite = tag.sprite;
 			sprite.visible = this.shown && Boolean( view && view.anchor && view.group.visible );
 			if ( ! sprite.visible ) continue;
-			tag.draw( view.note ?? null, `#${view.color.getHexString()}`, scale );
+			tag.draw( view.note ?? null, view.color, scale );
 			// sizeAttenuation off: a sprite `s` high is s * P[5] / 2 of the view's height.
 			const high = 2 * tag.heightPx / ( height * projection[ 5 ] );
 			const wide = 2 * tag.widthPx / ( width * projection[ 0 ] );

@@ -1,4 +1,5 @@
 import * as THREE from 'three';
+import { canvasSprite } from './canvas_sprite.js';
 
 const AXIS_M = 0.6; // world axes' length: out of the base of a robot standing at the origin
 const LETTER_SCALE = 0.026; // sprite height as a share of the view's height, times 2 tan(fov / 2)
@@ -9,18 +10,10 @@ const AXES = [
 	{ name: 'Z', dir: [ 0, 0, 1 ], color: '#2f6fd6' },
 ];
 
-/**
- * A text sprite that keeps its size on screen (sizeAttenuation off) and is drawn
- * over the robots (no depth test): drawn by WebGL like the rest of the view, so
- * it costs no DOM work per frame.
- */
+/** A text sprite (canvas_sprite.js) `height` high, as a share of the view's height times 2 tan(fov / 2). */
 function textSprite( text, color, height = LETTER_SCALE ) {
 
-	const canvas = document.createElement( 'canvas' );
-	// On the CPU: the 2D view draws this canvas into its own every frame, and reading an
-	// accelerated one back from SwiftShader's GPU process took ~0.2 s a letter there
-	// (2 frames/s in Chromium's default path; WebGL uploads it once either way).
-	const ctx = canvas.getContext( '2d', { willReadFrequently: true } );
+	const { canvas, ctx, sprite } = canvasSprite();
 	const font = `600 ${TEXT_PX}px system-ui, sans-serif`;
 	ctx.font = font;
 	canvas.width = Math.ceil( ctx.measureText( text ).width ) + 16;
@@ -34,10 +27,6 @@ function textSprite( text, color, height = LETTER_SCALE ) {
 	ctx.strokeText( text, canvas.width / 2, canvas.height / 2 );
 	ctx.fillStyle = color;
 	ctx.fillText( text, canvas.width / 2, canvas.height / 2 );
-	const texture = new THREE.CanvasTexture( canvas );
-	texture.colorSpace = THREE.SRGBColorSpace;
-	const material = new THREE.SpriteMaterial( { map: texture, sizeAttenuation: false, depthTest: false, depthWrite: false, toneMapped: false } );
-	const sprite = new THREE.Sprite( material );
 	sprite.scale.set( height * canvas.width / canvas.height, height, 1 );
 	sprite.renderOrder = 12;
 	sprite.name = text;
